@@ -1,2 +1,67 @@
 #![no_std]
-//! x
+#![forbid(unsafe_code)]
+#![doc = include_str!("../README.md")]
+
+mod accumulator;
+mod angle;
+mod config;
+mod correlation;
+mod direction;
+mod error;
+mod estimate;
+mod grid;
+mod reference;
+mod signature;
+mod translation;
+mod trig;
+
+pub use accumulator::{max_votes_per_bin, vote_column, Accumulator, Column};
+pub use angle::Angle;
+pub use config::{half_turn_steps, recommended_n_theta, rho_bins, row_words};
+pub use correlation::{Correlation, Peak, MAX_PEAKS};
+pub use direction::{match_profile, paper_asymmetry, ProfileMatch};
+pub use error::Error;
+pub use estimate::{
+    Candidate, Estimate, Estimator, HalfTurn, HalfTurnTest, Mode, Prior, Status, Thresholds,
+    MAX_CANDIDATES,
+};
+pub use grid::Grid;
+pub use reference::{Profile, Reference, PROFILE_COLUMNS};
+pub use signature::{ColumnStats, PeakKind, Signature, ASYMMETRY_FRACTION_BITS};
+pub use translation::{fit_translation, ColumnShift, Translation};
+pub use trig::{TrigTable, TRIG_FRACTION_BITS};
+
+/// Scores (correlations, margins, confidence) in Q16.16.
+pub type Score = fixed::types::I16F16;
+
+/// The [`Grid`] type for a `W × H` image: `grid!(128, 128)`.
+#[macro_export]
+macro_rules! grid {
+    ($w:expr, $h:expr) => {
+        $crate::Grid<{ $w }, { $h }, { $crate::row_words($w) }>
+    };
+}
+
+/// The [`Estimator`] type for `W × H` grids and `N_THETA` steps over the full
+/// circle: `estimator!(128, 128, 360)`.
+#[macro_export]
+macro_rules! estimator {
+    ($w:expr, $h:expr, $n:expr) => {
+        $crate::Estimator<
+            { $w },
+            { $h },
+            { $crate::row_words($w) },
+            { $n },
+            { $crate::half_turn_steps($n) },
+            { $crate::rho_bins($w, $h) },
+        >
+    };
+}
+
+/// The [`Reference`] type matching `estimator!(W, H, N_THETA)`.
+#[macro_export]
+macro_rules! reference {
+    ($w:expr, $h:expr, $n:expr) => {
+        $crate::Reference<{ $crate::half_turn_steps($n) }, { $crate::rho_bins($w, $h) }>
+    };
+}

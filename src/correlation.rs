@@ -1,0 +1,205 @@
+//! Circular Pearson correlation of two signatures (eqs. 11–12), its peaks and
+//! their sub-step position.
+//!
+//! `r(k) = cor(D1(θ), D2(θ + k·Δθ))` over the half circle (`D` has period π, so
+//! the shift is α modulo π). Computed exactly in integers:
+//! `r(k) = num(k) / den` with `num(k) = n·Σ D1·D2(·+k) − ΣD1·ΣD2` and
+//! `den = sqrt((nΣD1² − (ΣD1)²)(nΣD2² − (ΣD2)²))`; only `num` varies with `k`,
+//! so peaks are found on `num` and only they are divided.
+
+use crate::Score;
+use heapless::Vec;
+
+/// How many correlation peaks are kept (the strongest local maxima).
+pub const MAX_PEAKS: usize = 6;
+
+/// One local maximum of `num(k)`, with its neighbours for interpolation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Peak {
+    /// The shift `k ∈ [0, HALF)`, in θ steps.
+    pub shift: usize,
+    /// `num(k − 1)`.
+    pub before: i64,
+    /// `num(k)`.
+    pub value: i64,
+    /// `num(k + 1)`.
+    pub after: i64,
+}
+
+impl Peak {
+    /// Sub-step offset of the parabola through the peak and its neighbours, in
+    /// Q16 steps, within ±½ step.
+    pub fn offset_q16(&self) -> i64 {
+        let curvature =
+            i128::from(self.before) - 2 * i128::from(self.value) + i128::from(self.after);
+        if curvature >= 0 {
+            return 0;
+        }
+        let slope = i128::from(self.before) - i128::from(self.after);
+        // Vertex of the parabola: δ = (before − after) / (2 · curvature).
+        let delta = (slope << 15) / curvature;
+        delta.clamp(-(1 << 15), 1 << 15) as i64
+    }
+}
+
+/// The strongest correlation peaks of two signatures.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Correlation {
+    /// Local maxima of `num(k)`, strongest first.
+    pub peaks: Vec<Peak, MAX_PEAKS>,
+    /// `den`; 0 when either signature is constant (no structure).
+    pub denominator: u64,
+    /// Number of θ steps over the half circle.
+    pub half: usize,
+}
+
+impl Correlation {
+    /// Correlates `d1` with `d2` over every circular shift (`HALF²`
+    /// multiply-adds). Sums fit their types for every configuration the crate
+    /// accepts: values ≤ 2¹⁶, `HALF ≤ 2048` → `Σ ≤ 2⁴³`, `num ≤ 2⁵⁴`.
+    pub fn of<const HALF: usize>(d1: &[u16; HALF], d2: &[u16; HALF]) -> Self {
+        let n = HALF as i64;
+        let (sum1, sq1) = moments(d1);
+        let (sum2, sq2) = moments(d2);
+        let var1 = (n as u64 * sq1).saturating_sub(sum1 * sum1);
+        let var2 = (n as u64 * sq2).saturating_sub(sum2 * sum2);
+        let denominator = (u128::from(var1) * u128::from(var2)).isqrt() as u64;
+        let mut peaks = Vec::new();
+        if denominator == 0 || HALF < 3 {
+            return Self {
+                peaks,
+                denominator: 0,
+                half: HALF,
+            };
+        }
+        let mean_term = (sum1 * sum2) as i64;
+        let num = |k: usize| -> i64 {
+            let mut dot = 0u64;
+            let (head, tail) = d2.split_at(k);
+            for (a, b) in d1.iter().zip(tail.iter().chain(head)) {
+                dot += u64::from(*a) * u64::from(*b);
+            }
+            n * dot as i64 - mean_term
+        };
+        let first = num(0);
+        let mut before = num(HALF - 1);
+        let mut value = first;
+        for k in 0..HALF {
+            let after = if k + 1 < HALF { num(k + 1) } else { first };
+            // A plateau counts once, at its first step.
+            if value > before && value >= after {
+                insert(
+                    &mut peaks,
+                    Peak {
+                        shift: k,
+                        before,
+                        value,
+                        after,
+                    },
+                );
+            }
+            before = value;
+            value = after;
+        }
+        Self {
+            peaks,
+            denominator,
+            half: HALF,
+        }
+    }
+
+    /// Pearson correlation of a peak, in [−1, 1].
+    pub fn score(&self, peak: &Peak) -> Score {
+        if self.denominator == 0 {
+            return Score::ZERO;
+        }
+        let q16 = (i128::from(peak.value) << 16) / i128::from(self.denominator);
+        Score::from_bits(q16.clamp(-(1 << 16), 1 << 16) as i32)
+    }
+
+    /// The strongest peak, if the signatures have any structure.
+    pub fn best(&self) -> Option<&Peak> {
+        self.peaks.first()
+    }
+
+    /// The strongest peak at least `separation` steps (circularly, modulo π)
+    /// from the best one.
+    pub fn rival(&self, separation: usize) -> Option<&Peak> {
+        let best = self.best()?;
+        self.peaks
+            .iter()
+            .skip(1)
+            .find(|p| circular_distance(p.shift, best.shift, self.half) >= separation)
+    }
+}
+
+/// Circular distance between two shifts modulo `period`.
+pub(crate) fn circular_distance(a: usize, b: usize, period: usize) -> usize {
+    let d = a.abs_diff(b) % period.max(1);
+    d.min(period - d)
+}
+
+fn moments(d: &[u16]) -> (u64, u64) {
+    d.iter().fold((0, 0), |(s, q), &v| {
+        let v = u64::from(v);
+        (s + v, q + v * v)
+    })
+}
+
+/// Inserts keeping `peaks` sorted by value, strongest first, dropping the weakest.
+fn insert(peaks: &mut Vec<Peak, MAX_PEAKS>, peak: Peak) {
+    let at = peaks
+        .iter()
+        .position(|p| p.value < peak.value)
+        .unwrap_or(peaks.len());
+    if at >= MAX_PEAKS {
+        return;
+    }
+    if peaks.is_full() {
+        peaks.pop();
+    }
+    // Cannot fail: there is room after the pop and `at ≤ len`.
+    let _ = peaks.insert(at, peak);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn recovers_a_circular_shift_with_full_correlation() {
+        let mut d1 = [0u16; 12];
+        for (i, v) in d1.iter_mut().enumerate() {
+            *v = [1, 5, 9, 4, 2, 1, 1, 3, 7, 3, 1, 0][i];
+        }
+        let mut d2 = [0u16; 12];
+        for i in 0..12 {
+            d2[(i + 5) % 12] = d1[i];
+        }
+        let c = Correlation::of(&d1, &d2);
+        let best = c.best().unwrap();
+        assert_eq!(best.shift, 5);
+        assert_eq!(c.score(best), Score::ONE);
+        assert!(c.rival(2).is_some_and(|r| c.score(r) < Score::ONE));
+    }
+
+    #[test]
+    fn constant_signature_has_no_peaks() {
+        let c = Correlation::of(&[3u16; 10], &[1, 2, 3, 4, 5, 6, 7, 8, 9, 0]);
+        assert!(c.best().is_none());
+        assert_eq!(c.denominator, 0);
+    }
+
+    #[test]
+    fn parabolic_offset_by_hand() {
+        // Parabola with vertex at +0.25: values at −1, 0, 1 of −(x−0.25)²: −1.5625, −0.0625, −0.5625.
+        let p = Peak {
+            shift: 0,
+            before: -15625,
+            value: -625,
+            after: -5625,
+        };
+        assert_eq!(p.offset_q16(), 1 << 14);
+    }
+}

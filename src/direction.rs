@@ -1,0 +1,164 @@
+//! α versus α + π: two tests.
+//!
+//! * [`paper_asymmetry`]: the paper's section 8 — Pearson correlation of the
+//!   asymmetry maps `S1(θ)` and `S2(θ + α)` versus `S2(θ + α + π) = −S2(θ + α)`.
+//!   `l` and `u` are set by stray pixels, so this flips about half the time
+//!   with 10 % outliers (DESIGN.md §3).
+//! * [`match_profile`]: the improved test — the ρ-profile of a strong θ column
+//!   of image 1 against the column at θ + α of image 2, direct versus mirrored
+//!   (`ρ → −ρ`), each at its best ρ shift (a translation `t` shifts column θ by
+//!   `t·(cos θ, sin θ)`). The mirrored profile wins when the rotation is α + π.
+
+use crate::accumulator::Column;
+use crate::signature::Signature;
+
+/// The paper's direction score: Pearson correlation of `S1(θ)` and
+/// `S2(θ + k·Δθ)` over the full circle, in Q16 ([−1, 1]). The score of
+/// α + π is its negation. 0 when either map is identically zero.
+pub fn paper_asymmetry<const HALF: usize>(
+    s1: &Signature<HALF>,
+    s2: &Signature<HALF>,
+    k: usize,
+) -> i32 {
+    // Over the full circle S has mean 0 (S(θ + π) = −S(θ)) and both halves
+    // contribute the same products, so the half circle gives the same value.
+    let mut dot = 0i128;
+    let mut sq1 = 0i128;
+    let mut sq2 = 0i128;
+    for (i, &a) in s1.asymmetries().iter().enumerate() {
+        let b = s2.asymmetry(i + k);
+        dot += i128::from(a) * i128::from(b);
+        sq1 += i128::from(a) * i128::from(a);
+        sq2 += i128::from(b) * i128::from(b);
+    }
+    // Each root ≤ 2³⁷, so the product and `dot · 2¹⁶ ≤ 2⁸⁹` fit i128.
+    let norm = i128::from(isqrt_u128(sq1 as u128)) * i128::from(isqrt_u128(sq2 as u128));
+    if norm == 0 {
+        return 0;
+    }
+    ((dot << 16) / norm).clamp(-(1 << 16), 1 << 16) as i32
+}
+
+/// The best alignment of a reference profile with a column.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ProfileMatch {
+    /// Normalised dot product at the best shift, Q16 in [0, 1]
+    /// (`Σ P·Q / sqrt(ΣP² ΣQ²)`).
+    pub score_q16: u32,
+    /// The shift `s` (bins = pixels, Q16, sub-bin by parabolic refinement)
+    /// with `Q[b + s] ≈ P[b]` (direct) or `Q[b + s] ≈ P[RHO − b]` (mirrored).
+    pub shift_q16: i32,
+}
+
+/// Matches reference profile `profile` (counts scaled to `u8`) against
+/// `column` of the second image, at every shift `|s| ≤ max_shift`, direct or
+/// mirrored. Cost: at most `(2·max_shift + 1) × support` multiply-adds.
+pub fn match_profile<const RHO: usize>(
+    profile: &[u8; RHO],
+    column: &Column<RHO>,
+    max_shift: usize,
+    mirrored: bool,
+) -> ProfileMatch {
+    let mut p = [0u8; RHO];
+    if mirrored {
+        // P'[b] = P[RHO − b]; bin 0 is never voted, so it maps to itself.
+        for (b, v) in p.iter_mut().enumerate() {
+            *v = profile[(RHO - b) % RHO];
+        }
+    } else {
+        p = *profile;
+    }
+    let (Some((pl, pu)), Some((ql, qu))) = (support(&p), support(column)) else {
+        return ProfileMatch::default();
+    };
+    let p_sq: u64 = p.iter().map(|&v| u64::from(v) * u64::from(v)).sum();
+    let q_sq: u64 = column.iter().map(|&v| u64::from(v) * u64::from(v)).sum();
+    let norm = isqrt_u128(u128::from(p_sq) * u128::from(q_sq));
+    if norm == 0 {
+        return ProfileMatch::default();
+    }
+    let max_shift = max_shift as isize;
+    let dot = |s: isize| -> u64 {
+        // b ∈ [pl, pu] with b + s ∈ [ql, qu].
+        let lo = (pl as isize).max(ql as isize - s);
+        let hi = (pu as isize).min(qu as isize - s);
+        if lo > hi {
+            return 0;
+        }
+        let (lo, hi) = (lo as usize, hi as usize);
+        let q_lo = (lo as isize + s) as usize;
+        p[lo..=hi]
+            .iter()
+            .zip(&column[q_lo..=q_lo + (hi - lo)])
+            .map(|(&a, &b)| u64::from(a) * u64::from(b))
+            .sum()
+    };
+    // Shifts that can overlap at all.
+    let s_min = (ql as isize - pu as isize).max(-max_shift);
+    let s_max = (qu as isize - pl as isize).min(max_shift);
+    let mut best = (0u64, 0isize);
+    for s in s_min..=s_max {
+        let d = dot(s);
+        if d > best.0 {
+            best = (d, s);
+        }
+    }
+    let (peak, s) = best;
+    if peak == 0 {
+        return ProfileMatch::default();
+    }
+    let (before, after) = (dot(s - 1) as i64, dot(s + 1) as i64);
+    let curvature = before - 2 * peak as i64 + after;
+    let offset = if curvature < 0 {
+        (((before - after) << 15) / curvature).clamp(-(1 << 15), 1 << 15)
+    } else {
+        0
+    };
+    ProfileMatch {
+        score_q16: ((u128::from(peak) << 16) / u128::from(norm)).min(1 << 16) as u32,
+        shift_q16: ((s as i64) << 16).saturating_add(offset) as i32,
+    }
+}
+
+/// First and last index holding a non-zero value.
+fn support<T: Copy + Into<u32>>(values: &[T]) -> Option<(usize, usize)> {
+    let first = values.iter().position(|&v| v.into() != 0)?;
+    let last = values.iter().rposition(|&v| v.into() != 0)?;
+    Some((first, last))
+}
+
+pub(crate) fn isqrt_u128(v: u128) -> u64 {
+    v.isqrt() as u64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn finds_shift_and_mirror() {
+        let mut p = [0u8; 32];
+        p[10] = 9;
+        p[12] = 3;
+        p[20] = 5;
+        let mut q = [0u16; 32];
+        // Direct, shifted by +3.
+        for b in 0..29 {
+            q[b + 3] = u16::from(p[b]);
+        }
+        let direct = match_profile(&p, &q, 8, false);
+        let mirrored = match_profile(&p, &q, 8, true);
+        assert_eq!(direct.shift_q16 >> 16, 3);
+        assert_eq!(direct.score_q16, 1 << 16);
+        assert!(mirrored.score_q16 < direct.score_q16);
+        // Mirrored copy: Q[b] = P[32 − b − 2] → Q[b + (−2)]... matched by the mirrored test.
+        let mut m = [0u16; 32];
+        for b in 2..32 {
+            m[b] = u16::from(p[(32 - b + 2) % 32]);
+        }
+        assert!(
+            match_profile(&p, &m, 8, true).score_q16 > match_profile(&p, &m, 8, false).score_q16
+        );
+    }
+}

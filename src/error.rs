@@ -1,0 +1,38 @@
+//! The library's one error type.
+
+/// Why an operation was refused. No library function panics; each failure is
+/// one of these.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Error {
+    /// A cell outside the `W × H` grid. In-range cells of the same call were
+    /// still set; `rejected` counts the others.
+    OutOfBounds {
+        /// Number of cells that were not set.
+        rejected: u32,
+    },
+    /// A byte buffer is too short for the stored reference.
+    BufferTooSmall {
+        /// Bytes needed.
+        needed: usize,
+    },
+    /// Stored bytes are not a reference of this configuration (wrong magic,
+    /// version, sizes, mode or checksum).
+    InvalidReference,
+}
+
+impl core::fmt::Display for Error {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Error::OutOfBounds { rejected } => {
+                write!(f, "{rejected} cell(s) outside the grid were rejected")
+            }
+            Error::BufferTooSmall { needed } => {
+                write!(f, "buffer too small: {needed} bytes needed")
+            }
+            Error::InvalidReference => write!(f, "bytes are not a reference of this configuration"),
+        }
+    }
+}
+
+impl core::error::Error for Error {}

@@ -1,0 +1,563 @@
+//! The estimator: rotation (and translation) of image 2 relative to a
+//! reference, with status, confidence and candidates.
+
+use crate::accumulator::{vote_column, Column};
+use crate::correlation::{Correlation, Peak};
+use crate::direction::{match_profile, paper_asymmetry, ProfileMatch};
+use crate::reference::{Reference, PROFILE_COLUMNS};
+use crate::signature::{PeakKind, Signature};
+use crate::translation::{fit_translation, ColumnShift, Translation};
+use crate::trig::TrigTable;
+use crate::{Angle, Grid, Score};
+use heapless::Vec;
+
+/// Which pipeline the estimator runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Mode {
+    /// The paper as written: `D = max_ρ A`, the whole-step correlation peak,
+    /// and the asymmetry-map test for α vs α + π.
+    Paper,
+    /// Two-bin `D`, parabolic sub-step peak, and the column-profile test for
+    /// α vs α + π (DESIGN.md §3), plus the translation.
+    Improved,
+}
+
+impl Mode {
+    /// The `D(θ)` reduction this mode uses.
+    pub const fn peak_kind(self) -> PeakKind {
+        match self {
+            Mode::Paper => PeakKind::SingleBin,
+            Mode::Improved => PeakKind::TwoBin,
+        }
+    }
+}
+
+/// How far to trust the answer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Status {
+    /// One clear answer.
+    Confident,
+    /// α vs α + π cannot be told apart (corridors, centrally symmetric
+    /// rooms): both are in the candidates.
+    AmbiguousDirection,
+    /// A rival correlation peak nearly as strong as the best (e.g. a square,
+    /// Manhattan room: rival near 90°): see the candidates.
+    AmbiguousAxis,
+    /// Too few occupied cells or a featureless signature: no angle.
+    NoStructure,
+}
+
+/// Which member of the pair α, α + π the direction test chose.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum HalfTurn {
+    /// α (the correlation shift as is).
+    Direct,
+    /// α + π.
+    Flipped,
+}
+
+/// The direction test's two scores (in [−1, 1]; paper mode: `flipped =
+/// −direct`) and its choice.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct HalfTurnTest {
+    /// The chosen member.
+    pub chosen: HalfTurn,
+    /// Score of α.
+    pub direct: Score,
+    /// Score of α + π.
+    pub flipped: Score,
+}
+
+impl HalfTurnTest {
+    /// `(winner − loser) / max(|winner|, |loser|)` in [0, 1] (improved mode),
+    /// or `|direct|` (paper mode, where `flipped = −direct`).
+    pub fn margin(&self) -> Score {
+        let (hi, lo) = if self.direct >= self.flipped {
+            (self.direct, self.flipped)
+        } else {
+            (self.flipped, self.direct)
+        };
+        if lo == -hi {
+            return hi.abs();
+        }
+        let scale = hi.abs().max(lo.abs());
+        if scale == Score::ZERO {
+            Score::ZERO
+        } else {
+            (hi - lo) / scale
+        }
+    }
+}
+
+/// A possible rotation and its score (correlation × direction share, in [0, 1]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Candidate {
+    /// Rotation α of the scene (counter-clockwise, DESIGN.md §2).
+    pub alpha: Angle,
+    /// Score in [0, 1]; candidates are sorted by it, strongest first.
+    pub score: Score,
+}
+
+/// Most candidates an [`Estimate`] carries.
+pub const MAX_CANDIDATES: usize = 4;
+
+/// An optional prior on α, e.g. from a gyro or odometry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Prior {
+    /// Expected α (scene rotation; for a robot that turned left by `dθ`,
+    /// α = −dθ).
+    pub alpha: Angle,
+    /// One standard deviation; candidates farther than 3σ are not picked.
+    pub sigma: Angle,
+}
+
+/// Thresholds of the status decision (defaults from DESIGN.md §3, checked by
+/// the accuracy evaluation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Thresholds {
+    /// [`Status::AmbiguousAxis`] when the rival peak's correlation is at least
+    /// this fraction of the best one's. Default 0.9.
+    pub rival_ratio: Score,
+    /// [`Status::AmbiguousDirection`] when [`HalfTurnTest::margin`] is below
+    /// this. Default 0.05.
+    pub direction_margin: Score,
+    /// [`Status::NoStructure`] when either grid has fewer occupied cells.
+    /// Default 8.
+    pub min_occupied: u32,
+    /// Largest translation searched by the profile test, as a fraction of the
+    /// ρ range. Default ¼ (±64 px at 128²).
+    pub max_shift_fraction: Score,
+}
+
+impl Thresholds {
+    /// The defaults, usable in `const` context.
+    pub const DEFAULT: Thresholds = Thresholds {
+        rival_ratio: Score::from_bits(58_982),     // 0.9
+        direction_margin: Score::from_bits(3_277), // 0.05
+        min_occupied: 8,
+        max_shift_fraction: Score::from_bits(16_384), // 0.25
+    };
+}
+
+impl Default for Thresholds {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// The result of one estimate.
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Estimate {
+    /// Rotation of the scene from the reference to the new image,
+    /// counter-clockwise: a point `p` of image 1 appears in image 2 at
+    /// `R(α)·p + t`. Meaningless when `status` is [`Status::NoStructure`].
+    pub alpha: Angle,
+    /// How far to trust `alpha`.
+    pub status: Status,
+    /// A summary in [0, 1]: the correlation of the winner, scaled down as the
+    /// rival peak or the direction margin approach their thresholds.
+    pub confidence: Score,
+    /// Pearson correlation of the winning shift (modulo π), in [−1, 1].
+    pub correlation: Score,
+    /// Pearson correlation of the best rival peak at least 5° away (0 if none).
+    pub rival: Score,
+    /// The α vs α + π test of the winning peak.
+    pub half_turn: HalfTurnTest,
+    /// Up to [`MAX_CANDIDATES`] rotations, strongest first; `alpha` is one of
+    /// them (the first, unless a prior picked another).
+    pub candidates: Vec<Candidate, MAX_CANDIDATES>,
+    /// Translation `t` in pixels (improved mode, when the rotation is
+    /// resolved), `None` otherwise.
+    pub translation: Option<Translation>,
+}
+
+impl Estimate {
+    fn no_structure() -> Self {
+        Self {
+            alpha: Angle::ZERO,
+            status: Status::NoStructure,
+            confidence: Score::ZERO,
+            correlation: Score::ZERO,
+            rival: Score::ZERO,
+            half_turn: HalfTurnTest {
+                chosen: HalfTurn::Direct,
+                direct: Score::ZERO,
+                flipped: Score::ZERO,
+            },
+            candidates: Vec::new(),
+            translation: None,
+        }
+    }
+}
+
+/// The estimator for `W × H` grids and `N` θ steps over the full circle.
+/// `RW`, `HALF` and `RHO` are derived sizes: use the
+/// [`estimator!`](crate::estimator) macro.
+///
+/// State: one ρ column (`2·RHO` bytes) and the signature of the current image
+/// (`6·HALF + 8` bytes): 1.6 KiB at 128², `N` = 360. Work per estimate: the
+/// votes of `HALF` columns (occupied cells × `HALF`), `HALF²` multiply-adds of
+/// the correlation, and `2 × PROFILE_COLUMNS` column votes and profile
+/// matches per direction test (improved mode).
+#[derive(Clone, Debug)]
+pub struct Estimator<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+> {
+    mode: Mode,
+    thresholds: Thresholds,
+    column: Column<RHO>,
+    current: Signature<HALF>,
+}
+
+impl<
+        const W: usize,
+        const H: usize,
+        const RW: usize,
+        const N: usize,
+        const HALF: usize,
+        const RHO: usize,
+    > Estimator<W, H, RW, N, HALF, RHO>
+{
+    /// An estimator with the default [`Thresholds`].
+    pub const fn new(mode: Mode) -> Self {
+        const { crate::config::check_config(W, H, RW, N, HALF, RHO) };
+        Self {
+            mode,
+            thresholds: Thresholds::DEFAULT,
+            column: [0; RHO],
+            current: Signature::empty(mode.peak_kind()),
+        }
+    }
+
+    /// Replaces the thresholds.
+    pub const fn with_thresholds(mut self, thresholds: Thresholds) -> Self {
+        self.thresholds = thresholds;
+        self
+    }
+
+    /// The mode.
+    pub const fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    /// The signature of the last grid passed to [`Self::estimate`].
+    pub const fn current_signature(&self) -> &Signature<HALF> {
+        &self.current
+    }
+
+    /// Prepares `grid` as a reference for this estimator's mode.
+    pub fn reference(&mut self, grid: &Grid<W, H, RW>) -> Reference<HALF, RHO> {
+        Reference::prepare::<W, H, RW, N>(grid, self.mode.peak_kind(), &mut self.column)
+    }
+
+    /// Rotation of `grid` relative to two grids: prepares `first` as the
+    /// reference, then [`Self::estimate`].
+    pub fn estimate_pair(&mut self, first: &Grid<W, H, RW>, second: &Grid<W, H, RW>) -> Estimate {
+        let reference = self.reference(first);
+        self.estimate(&reference, second)
+    }
+
+    /// Rotation of `grid` relative to `reference`.
+    pub fn estimate(
+        &mut self,
+        reference: &Reference<HALF, RHO>,
+        grid: &Grid<W, H, RW>,
+    ) -> Estimate {
+        self.estimate_with_prior(reference, grid, None)
+    }
+
+    /// Like [`Self::estimate`], with a prior that picks among the candidates:
+    /// the one nearest the prior within 3σ; if it is the only one within 3σ,
+    /// the status becomes [`Status::Confident`] (the prior resolved the
+    /// ambiguity). Without any candidate within 3σ the vision answer stands.
+    pub fn estimate_with_prior(
+        &mut self,
+        reference: &Reference<HALF, RHO>,
+        grid: &Grid<W, H, RW>,
+        prior: Option<Prior>,
+    ) -> Estimate {
+        let occupied = grid.occupied();
+        if occupied < self.thresholds.min_occupied
+            || reference.occupied() < self.thresholds.min_occupied
+        {
+            return Estimate::no_structure();
+        }
+        let kind = reference.signature().kind();
+        self.current = Signature::stream::<W, H, RW, N, RHO>(grid, kind, &mut self.column);
+        let correlation = Correlation::of(reference.signature().peaks(), self.current.peaks());
+        let Some(best) = correlation.best().copied() else {
+            return Estimate::no_structure();
+        };
+        let best_score = correlation.score(&best);
+        if best_score <= Score::ZERO {
+            return Estimate::no_structure();
+        }
+        let separation = (N / 72).max(2);
+        let rival = correlation.rival(separation).copied();
+        let rival_score = rival.map_or(Score::ZERO, |p| correlation.score(&p));
+
+        let mut candidates: Vec<Candidate, MAX_CANDIDATES> = Vec::new();
+        let (alpha_best, test, translation) = self.resolve(reference, grid, &best);
+        push_pair(&mut candidates, alpha_best, best_score, &test);
+        // A rival close to the best is worth a second direction test.
+        if let Some(r) = rival.filter(|_| rival_score * 4 >= best_score * 3) {
+            let (alpha_r, test_r, _) = self.resolve(reference, grid, &r);
+            push_pair(&mut candidates, alpha_r, rival_score, &test_r);
+        }
+        candidates.sort_unstable_by(|a, b| b.score.cmp(&a.score));
+
+        let axis_ambiguous = rival_score >= best_score * self.thresholds.rival_ratio;
+        let margin = test.margin();
+        let direction_ambiguous = margin < self.thresholds.direction_margin;
+        let mut status = if direction_ambiguous {
+            Status::AmbiguousDirection
+        } else if axis_ambiguous {
+            Status::AmbiguousAxis
+        } else {
+            Status::Confident
+        };
+        let chosen_alpha = match test.chosen {
+            HalfTurn::Direct => alpha_best,
+            HalfTurn::Flipped => alpha_best + Angle::HALF_TURN,
+        };
+        let mut alpha = chosen_alpha;
+        if let Some(prior) = prior {
+            let gate = Angle(prior.sigma.0.saturating_mul(3));
+            let mut near = candidates
+                .iter()
+                .filter(|c| c.alpha.distance(prior.alpha) <= gate);
+            if let Some(first) = near.next() {
+                let nearest = near.fold(first, |a, c| {
+                    if c.alpha.distance(prior.alpha) < a.alpha.distance(prior.alpha) {
+                        c
+                    } else {
+                        a
+                    }
+                });
+                alpha = nearest.alpha;
+                let others = candidates
+                    .iter()
+                    .filter(|c| c.alpha.distance(prior.alpha) <= gate)
+                    .count();
+                if others == 1 {
+                    status = Status::Confident;
+                }
+            }
+        }
+        let confidence = confidence(best_score, rival_score, margin, &self.thresholds);
+        Estimate {
+            alpha,
+            status,
+            confidence,
+            correlation: best_score,
+            rival: rival_score,
+            half_turn: test,
+            candidates,
+            translation: if alpha == chosen_alpha {
+                translation
+            } else {
+                None
+            },
+        }
+    }
+
+    /// α of a correlation peak, its direction test and (improved mode) the
+    /// translation implied by the profile shifts.
+    fn resolve(
+        &mut self,
+        reference: &Reference<HALF, RHO>,
+        grid: &Grid<W, H, RW>,
+        peak: &Peak,
+    ) -> (Angle, HalfTurnTest, Option<Translation>) {
+        match self.mode {
+            Mode::Paper => {
+                let alpha = Angle::from_steps_q16((peak.shift as i64) << 16, N);
+                let direct = paper_asymmetry(reference.signature(), &self.current, peak.shift);
+                let direct = Score::from_bits(direct);
+                let chosen = if direct >= Score::ZERO {
+                    HalfTurn::Direct
+                } else {
+                    HalfTurn::Flipped
+                };
+                (
+                    alpha,
+                    HalfTurnTest {
+                        chosen,
+                        direct,
+                        flipped: -direct,
+                    },
+                    None,
+                )
+            }
+            Mode::Improved => {
+                let alpha =
+                    Angle::from_steps_q16(((peak.shift as i64) << 16) + peak.offset_q16(), N);
+                self.profile_test(reference, grid, alpha)
+            }
+        }
+    }
+
+    /// The improved direction test and the translation fit.
+    fn profile_test(
+        &mut self,
+        reference: &Reference<HALF, RHO>,
+        grid: &Grid<W, H, RW>,
+        alpha: Angle,
+    ) -> (Angle, HalfTurnTest, Option<Translation>) {
+        let max_shift = (self.thresholds.max_shift_fraction * RHO as i32)
+            .to_num::<i32>()
+            .max(1) as usize;
+        let table = &TrigTable::<N>::TABLE;
+        let mut direct_shifts: Vec<ColumnShift, PROFILE_COLUMNS> = Vec::new();
+        let mut flipped_shifts: Vec<ColumnShift, PROFILE_COLUMNS> = Vec::new();
+        let (mut direct_sum, mut flipped_sum) = (0u64, 0u64);
+        for profile in reference.profiles() {
+            // Column of image 2 where the reference column θ lands under α.
+            let theta = Angle::from_steps_q16((profile.theta as i64) << 16, N);
+            let m = (theta + alpha).nearest_step(N);
+            self.column.fill(0);
+            vote_column::<W, H, RW, N, RHO>(grid, m % HALF, &mut self.column);
+            if m >= HALF {
+                mirror(&mut self.column);
+            }
+            let direct = match_profile(&profile.counts, &self.column, max_shift, false);
+            let flipped = match_profile(&profile.counts, &self.column, max_shift, true);
+            direct_sum += u64::from(direct.score_q16);
+            flipped_sum += u64::from(flipped.score_q16);
+            let normal = (table.cos(m), table.sin(m));
+            let _ = direct_shifts.push(column_shift(normal, direct));
+            let _ = flipped_shifts.push(column_shift(normal, flipped));
+        }
+        let count = reference.profiles().len().max(1) as u64;
+        let direct = Score::from_bits((direct_sum / count) as i32);
+        let flipped = Score::from_bits((flipped_sum / count) as i32);
+        let chosen = if direct >= flipped {
+            HalfTurn::Direct
+        } else {
+            HalfTurn::Flipped
+        };
+        let shifts = match chosen {
+            HalfTurn::Direct => &direct_shifts,
+            HalfTurn::Flipped => &flipped_shifts,
+        };
+        (
+            alpha,
+            HalfTurnTest {
+                chosen,
+                direct,
+                flipped,
+            },
+            fit_translation(shifts),
+        )
+    }
+}
+
+fn column_shift(normal: (i32, i32), m: ProfileMatch) -> ColumnShift {
+    ColumnShift {
+        normal_q15: normal,
+        shift_q16: m.shift_q16,
+        weight_q16: m.score_q16,
+    }
+}
+
+/// Reverses a column in place about its centre: `b ↔ RHO − b` (θ → θ + π).
+fn mirror<const RHO: usize>(column: &mut Column<RHO>) {
+    // Bins 1..RHO: reversing that slice maps b to RHO − b.
+    if let Some(tail) = column.get_mut(1..) {
+        tail.reverse();
+    }
+}
+
+/// Adds α and, when the direction test is close, α + π, scored by correlation
+/// × direction share.
+fn push_pair(
+    candidates: &mut Vec<Candidate, MAX_CANDIDATES>,
+    alpha: Angle,
+    correlation: Score,
+    test: &HalfTurnTest,
+) {
+    let (d, f) = (test.direct.max(Score::ZERO), test.flipped.max(Score::ZERO));
+    let total = d + f;
+    let share = |s: Score| {
+        if total == Score::ZERO {
+            Score::from_num(0.5)
+        } else {
+            s / total
+        }
+    };
+    let (first, second, first_share, second_share) = match test.chosen {
+        HalfTurn::Direct => (alpha, alpha + Angle::HALF_TURN, share(d), share(f)),
+        HalfTurn::Flipped => (alpha + Angle::HALF_TURN, alpha, share(f), share(d)),
+    };
+    let _ = candidates.push(Candidate {
+        alpha: first,
+        score: correlation * first_share,
+    });
+    let _ = candidates.push(Candidate {
+        alpha: second,
+        score: correlation * second_share,
+    });
+}
+
+/// Confidence in [0, 1]: the best correlation, scaled linearly to 0 as the
+/// rival ratio rises from `rival_ratio − 0.1` to `rival_ratio`, and as the
+/// direction margin falls from twice its threshold to the threshold.
+fn confidence(best: Score, rival: Score, margin: Score, t: &Thresholds) -> Score {
+    let one = Score::ONE;
+    let ratio = if best > Score::ZERO {
+        rival / best
+    } else {
+        one
+    };
+    let axis = ((t.rival_ratio - ratio) * 10).clamp(Score::ZERO, one);
+    let direction = if t.direction_margin > Score::ZERO {
+        ((margin - t.direction_margin) / t.direction_margin).clamp(Score::ZERO, one)
+    } else {
+        one
+    };
+    best.clamp(Score::ZERO, one) * axis * direction
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn margin_by_hand() {
+        let t = HalfTurnTest {
+            chosen: HalfTurn::Direct,
+            direct: Score::from_num(0.8),
+            flipped: Score::from_num(0.6),
+        };
+        assert!((t.margin().to_num::<f32>() - 0.25).abs() < 1e-3);
+        let p = HalfTurnTest {
+            chosen: HalfTurn::Flipped,
+            direct: Score::from_num(-0.3),
+            flipped: Score::from_num(0.3),
+        };
+        assert!((p.margin().to_num::<f32>() - 0.3).abs() < 1e-3);
+    }
+
+    #[test]
+    fn mirror_maps_b_to_rho_minus_b() {
+        let mut c = [0u16; 8];
+        c[1] = 1;
+        c[3] = 3;
+        c[4] = 4;
+        mirror(&mut c);
+        assert_eq!(c, [0, 0, 0, 0, 4, 3, 0, 1]);
+    }
+}

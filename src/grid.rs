@@ -1,0 +1,194 @@
+//! Bounded, bit-packed occupancy grid: the binary image the method works on.
+//!
+//! Cell `(col, row)` is bit `col % 32` of word `col / 32` of row `row`; row 0 is
+//! the top of the image. Coordinates used by the method (DESIGN.md §2):
+//! `x = col − (W−1)/2`, `y = (H−1)/2 − row` (origin at the centre, y up).
+
+use crate::Error;
+
+/// A `W × H` binary image, one bit per cell, `ROW_WORDS = row_words(W)` words
+/// per row (use the [`grid!`](crate::grid) macro to fill it in).
+///
+/// Size: `4 · ROW_WORDS · H` bytes (128² → 2 KiB). Bits beyond `W` in the last
+/// word of a row are always zero.
+#[derive(Clone, PartialEq, Eq, Debug)]
+pub struct Grid<const W: usize, const H: usize, const ROW_WORDS: usize> {
+    rows: [[u32; ROW_WORDS]; H],
+}
+
+impl<const W: usize, const H: usize, const ROW_WORDS: usize> Default for Grid<W, H, ROW_WORDS> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const W: usize, const H: usize, const ROW_WORDS: usize> Grid<W, H, ROW_WORDS> {
+    /// Grid width in cells.
+    pub const WIDTH: usize = W;
+    /// Grid height in cells.
+    pub const HEIGHT: usize = H;
+
+    /// An empty grid.
+    pub const fn new() -> Self {
+        const { crate::config::check_grid(W, H, ROW_WORDS) };
+        Self {
+            rows: [[0; ROW_WORDS]; H],
+        }
+    }
+
+    /// A grid from raw row words (e.g. a `const` table in flash). Bits beyond
+    /// `W` are cleared.
+    pub const fn from_words(mut rows: [[u32; ROW_WORDS]; H]) -> Self {
+        const { crate::config::check_grid(W, H, ROW_WORDS) };
+        let mut r = 0;
+        while r < H {
+            rows[r][ROW_WORDS - 1] &= Self::last_word_mask();
+            r += 1;
+        }
+        Self { rows }
+    }
+
+    const fn last_word_mask() -> u32 {
+        match W % 32 {
+            0 => u32::MAX,
+            used => (1u32 << used) - 1,
+        }
+    }
+
+    /// The raw row words.
+    pub const fn words(&self) -> &[[u32; ROW_WORDS]; H] {
+        &self.rows
+    }
+
+    /// Marks cell `(col, row)` occupied.
+    ///
+    /// # Errors
+    /// [`Error::OutOfBounds`] if `col ≥ W` or `row ≥ H`; the grid is unchanged.
+    pub fn set(&mut self, col: usize, row: usize) -> Result<(), Error> {
+        self.assign(col, row, true)
+    }
+
+    /// Marks cell `(col, row)` free.
+    ///
+    /// # Errors
+    /// [`Error::OutOfBounds`] if `col ≥ W` or `row ≥ H`; the grid is unchanged.
+    pub fn clear(&mut self, col: usize, row: usize) -> Result<(), Error> {
+        self.assign(col, row, false)
+    }
+
+    fn assign(&mut self, col: usize, row: usize, occupied: bool) -> Result<(), Error> {
+        if col >= W {
+            return Err(Error::OutOfBounds { rejected: 1 });
+        }
+        let word = self
+            .rows
+            .get_mut(row)
+            .and_then(|r| r.get_mut(col / 32))
+            .ok_or(Error::OutOfBounds { rejected: 1 })?;
+        let bit = 1u32 << (col % 32);
+        if occupied {
+            *word |= bit;
+        } else {
+            *word &= !bit;
+        }
+        Ok(())
+    }
+
+    /// Whether cell `(col, row)` is occupied; `false` outside the grid.
+    pub fn get(&self, col: usize, row: usize) -> bool {
+        col < W
+            && self
+                .rows
+                .get(row)
+                .and_then(|r| r.get(col / 32))
+                .is_some_and(|w| w & (1 << (col % 32)) != 0)
+    }
+
+    /// Marks every `(col, row)` of `cells` occupied.
+    ///
+    /// # Errors
+    /// [`Error::OutOfBounds`] with the number of cells outside the grid; all
+    /// in-range cells were still set.
+    pub fn set_cells<I: IntoIterator<Item = (usize, usize)>>(
+        &mut self,
+        cells: I,
+    ) -> Result<(), Error> {
+        let mut rejected = 0u32;
+        for (col, row) in cells {
+            if self.set(col, row).is_err() {
+                rejected = rejected.saturating_add(1);
+            }
+        }
+        match rejected {
+            0 => Ok(()),
+            rejected => Err(Error::OutOfBounds { rejected }),
+        }
+    }
+
+    /// Marks the cell containing point `(x, y)` occupied, in the centred, y-up
+    /// coordinates of DESIGN.md §2 (units: cells; the cell centres are at
+    /// `x = col − (W−1)/2`).
+    ///
+    /// # Errors
+    /// [`Error::OutOfBounds`] if the point is outside the grid or not finite.
+    pub fn set_point(&mut self, x: f32, y: f32) -> Result<(), Error> {
+        let col = x + (W as f32 - 1.0) * 0.5 + 0.5;
+        let row = (H as f32 - 1.0) * 0.5 - y + 0.5;
+        // NaN fails both comparisons.
+        if !(col >= 0.0 && col < W as f32 && row >= 0.0 && row < H as f32) {
+            return Err(Error::OutOfBounds { rejected: 1 });
+        }
+        self.set(col as usize, row as usize)
+    }
+
+    /// Clears every cell.
+    pub fn clear_all(&mut self) {
+        self.rows = [[0; ROW_WORDS]; H];
+    }
+
+    /// Number of occupied cells.
+    pub fn occupied(&self) -> u32 {
+        self.rows.iter().flatten().map(|w| w.count_ones()).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    type G = Grid<40, 3, 2>;
+    use super::*;
+
+    #[test]
+    fn set_get_and_bounds() {
+        let mut g = G::new();
+        assert_eq!(g.set(39, 2), Ok(()));
+        assert!(g.get(39, 2));
+        assert_eq!(g.set(40, 0), Err(Error::OutOfBounds { rejected: 1 }));
+        assert_eq!(g.set(0, 3), Err(Error::OutOfBounds { rejected: 1 }));
+        assert_eq!(
+            g.set_cells([(1, 1), (99, 1), (2, 9)]),
+            Err(Error::OutOfBounds { rejected: 2 })
+        );
+        assert_eq!(g.occupied(), 2);
+        g.clear(39, 2).unwrap();
+        assert_eq!(g.occupied(), 1);
+    }
+
+    #[test]
+    fn points_map_to_centred_cells() {
+        let mut g = Grid::<4, 4, 1>::new();
+        // Cell centres are at x ∈ {−1.5, −0.5, 0.5, 1.5}, y likewise (row 0 at y = 1.5).
+        g.set_point(-1.5, 1.5).unwrap();
+        assert!(g.get(0, 0));
+        g.set_point(1.6, -1.4).unwrap();
+        assert!(g.get(3, 3));
+        assert!(g.set_point(2.1, 0.0).is_err());
+        assert!(g.set_point(f32::NAN, 0.0).is_err());
+        assert_eq!(g.occupied(), 2);
+    }
+
+    #[test]
+    fn from_words_masks_bits_beyond_width() {
+        let g = G::from_words([[u32::MAX; 2]; 3]);
+        assert_eq!(g.occupied(), 3 * 40);
+    }
+}

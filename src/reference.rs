@@ -1,0 +1,260 @@
+//! A reference view, prepared once: its signature plus the ρ-profiles of its
+//! strongest θ columns (for the improved direction test and the translation).
+//! Stored as a plain struct or as bytes (e.g. in flash), so each new
+//! measurement costs one signature, not two.
+
+use crate::accumulator::{vote_column, Column};
+use crate::correlation::circular_distance;
+use crate::signature::{PeakKind, Signature};
+use crate::{Error, Grid};
+
+/// How many θ columns of the reference keep their ρ-profile.
+pub const PROFILE_COLUMNS: usize = 4;
+
+/// The ρ-profile of one θ column of the reference, scaled to `u8`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Profile<const RHO: usize> {
+    /// Column index `k ∈ [0, HALF)` (θ = πk/HALF).
+    pub theta: usize,
+    /// `A(θ, b) >> shift` per bin, with the smallest shift that fits `u8`
+    /// (the matching is scale-invariant).
+    pub counts: [u8; RHO],
+}
+
+/// A prepared reference: signature plus up to [`PROFILE_COLUMNS`] profiles.
+///
+/// Size: `6·HALF + 4·(RHO + 8) + 16` bytes or so (128², `N_THETA` = 360:
+/// 2.1 KiB); see `host-tests` for the exact `size_of` per configuration.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Reference<const HALF: usize, const RHO: usize> {
+    pub(crate) signature: Signature<HALF>,
+    pub(crate) profiles: heapless::Vec<Profile<RHO>, PROFILE_COLUMNS>,
+    pub(crate) occupied: u32,
+}
+
+const MAGIC: [u8; 4] = *b"HHR1";
+
+impl<const HALF: usize, const RHO: usize> Reference<HALF, RHO> {
+    /// Bytes of [`Self::to_bytes`]: header 16, signature `6·HALF`, profiles
+    /// `4·(2 + RHO)`, checksum 4.
+    pub const BYTES: usize = 16 + 6 * HALF + PROFILE_COLUMNS * (2 + RHO) + 4;
+
+    /// Prepares `grid` as a reference: streams its signature, then re-votes the
+    /// [`PROFILE_COLUMNS`] strongest, well-separated columns to keep their
+    /// profiles. `column` is scratch. `N = 2·HALF`.
+    pub fn prepare<const W: usize, const H: usize, const RW: usize, const N: usize>(
+        grid: &Grid<W, H, RW>,
+        kind: PeakKind,
+        column: &mut Column<RHO>,
+    ) -> Self {
+        let signature = Signature::<HALF>::stream::<W, H, RW, N, RHO>(grid, kind, column);
+        let mut profiles = heapless::Vec::new();
+        for theta in strongest_columns(&signature) {
+            column.fill(0);
+            vote_column::<W, H, RW, N, RHO>(grid, theta, column);
+            let max = column.iter().copied().max().unwrap_or(0);
+            let shift = (16 - max.leading_zeros()).saturating_sub(8);
+            let mut counts = [0u8; RHO];
+            for (c, &a) in counts.iter_mut().zip(column.iter()) {
+                *c = (a >> shift) as u8;
+            }
+            // Cannot fail: at most PROFILE_COLUMNS columns are chosen.
+            let _ = profiles.push(Profile { theta, counts });
+        }
+        Self {
+            signature,
+            profiles,
+            occupied: grid.occupied(),
+        }
+    }
+
+    /// The signature `D`, `S` of the reference.
+    pub const fn signature(&self) -> &Signature<HALF> {
+        &self.signature
+    }
+
+    /// The stored column profiles, strongest column first.
+    pub fn profiles(&self) -> &[Profile<RHO>] {
+        &self.profiles
+    }
+
+    /// Number of occupied cells of the reference grid.
+    pub const fn occupied(&self) -> u32 {
+        self.occupied
+    }
+
+    /// Writes the reference as [`Self::BYTES`] bytes (little-endian, with a
+    /// magic number, the sizes and an FNV-1a checksum). Returns the length.
+    ///
+    /// # Errors
+    /// [`Error::BufferTooSmall`] if `out` is shorter than [`Self::BYTES`].
+    pub fn to_bytes(&self, out: &mut [u8]) -> Result<usize, Error> {
+        let out = out.get_mut(..Self::BYTES).ok_or(Error::BufferTooSmall {
+            needed: Self::BYTES,
+        })?;
+        let mut w = Writer { out, at: 0 };
+        w.put(&MAGIC);
+        w.put(&(HALF as u16).to_le_bytes());
+        w.put(&(RHO as u16).to_le_bytes());
+        w.put(&[
+            kind_byte(self.signature.kind),
+            self.profiles.len() as u8,
+            0,
+            0,
+        ]);
+        w.put(&self.occupied.to_le_bytes());
+        for p in self.signature.peaks() {
+            w.put(&p.to_le_bytes());
+        }
+        for s in self.signature.asymmetries() {
+            w.put(&s.to_le_bytes());
+        }
+        for i in 0..PROFILE_COLUMNS {
+            match self.profiles.get(i) {
+                Some(p) => {
+                    w.put(&(p.theta as u16).to_le_bytes());
+                    w.put(&p.counts);
+                }
+                None => w.skip(2 + RHO),
+            }
+        }
+        let sum = fnv1a(&w.out[..w.at]);
+        w.put(&sum.to_le_bytes());
+        Ok(Self::BYTES)
+    }
+
+    /// Reads a reference written by [`Self::to_bytes`] for the same `HALF`
+    /// and `RHO`.
+    ///
+    /// # Errors
+    /// [`Error::BufferTooSmall`] if `bytes` is short; [`Error::InvalidReference`]
+    /// if the magic, sizes, mode, profile columns or checksum do not match.
+    pub fn from_bytes(bytes: &[u8]) -> Result<Self, Error> {
+        let bytes = bytes.get(..Self::BYTES).ok_or(Error::BufferTooSmall {
+            needed: Self::BYTES,
+        })?;
+        let (body, sum) = bytes.split_at(Self::BYTES - 4);
+        if sum != fnv1a(body).to_le_bytes() {
+            return Err(Error::InvalidReference);
+        }
+        let mut r = Reader { bytes: body, at: 0 };
+        let header_ok = r.take::<4>() == MAGIC
+            && u16::from_le_bytes(r.take()) as usize == HALF
+            && u16::from_le_bytes(r.take()) as usize == RHO;
+        let [kind, count, _, _] = r.take::<4>();
+        let kind = match kind {
+            0 => PeakKind::SingleBin,
+            1 => PeakKind::TwoBin,
+            _ => return Err(Error::InvalidReference),
+        };
+        if !header_ok || count as usize > PROFILE_COLUMNS {
+            return Err(Error::InvalidReference);
+        }
+        let occupied = u32::from_le_bytes(r.take());
+        let mut signature = Signature::empty(kind);
+        for p in signature.peak.iter_mut() {
+            *p = u16::from_le_bytes(r.take());
+        }
+        for s in signature.asymmetry.iter_mut() {
+            *s = i32::from_le_bytes(r.take());
+        }
+        let mut profiles = heapless::Vec::new();
+        for i in 0..PROFILE_COLUMNS {
+            let theta = u16::from_le_bytes(r.take()) as usize;
+            let mut counts = [0u8; RHO];
+            for c in counts.iter_mut() {
+                *c = r.take::<1>()[0];
+            }
+            if i < count as usize {
+                if theta >= HALF {
+                    return Err(Error::InvalidReference);
+                }
+                let _ = profiles.push(Profile { theta, counts });
+            }
+        }
+        Ok(Self {
+            signature,
+            profiles,
+            occupied,
+        })
+    }
+}
+
+/// The [`PROFILE_COLUMNS`] strongest local maxima of `D`, at least 10° apart
+/// (modulo π), strongest first.
+fn strongest_columns<const HALF: usize>(
+    signature: &Signature<HALF>,
+) -> heapless::Vec<usize, PROFILE_COLUMNS> {
+    let d = signature.peaks();
+    let separation = (HALF / 18).max(2);
+    let mut chosen: heapless::Vec<usize, PROFILE_COLUMNS> = heapless::Vec::new();
+    while !chosen.is_full() {
+        let next = (0..HALF)
+            .filter(|&k| d[k] > 0)
+            .filter(|&k| d[k] >= d[(k + HALF - 1) % HALF] && d[k] >= d[(k + 1) % HALF])
+            .filter(|&k| {
+                chosen
+                    .iter()
+                    .all(|&c| circular_distance(c, k, HALF) >= separation)
+            })
+            .max_by_key(|&k| (d[k], core::cmp::Reverse(k)));
+        match next {
+            Some(k) => {
+                let _ = chosen.push(k);
+            }
+            None => break,
+        }
+    }
+    chosen
+}
+
+fn kind_byte(kind: PeakKind) -> u8 {
+    match kind {
+        PeakKind::SingleBin => 0,
+        PeakKind::TwoBin => 1,
+    }
+}
+
+fn fnv1a(bytes: &[u8]) -> u32 {
+    bytes.iter().fold(0x811c_9dc5u32, |h, &b| {
+        (h ^ u32::from(b)).wrapping_mul(0x0100_0193)
+    })
+}
+
+struct Writer<'a> {
+    out: &'a mut [u8],
+    at: usize,
+}
+
+impl Writer<'_> {
+    fn put(&mut self, bytes: &[u8]) {
+        if let Some(dst) = self.out.get_mut(self.at..self.at + bytes.len()) {
+            dst.copy_from_slice(bytes);
+        }
+        self.at += bytes.len();
+    }
+
+    fn skip(&mut self, n: usize) {
+        if let Some(dst) = self.out.get_mut(self.at..self.at + n) {
+            dst.fill(0);
+        }
+        self.at += n;
+    }
+}
+
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl Reader<'_> {
+    /// The next `K` bytes; zeros past the end (lengths are checked up front).
+    fn take<const K: usize>(&mut self) -> [u8; K] {
+        let mut out = [0u8; K];
+        if let Some(src) = self.bytes.get(self.at..self.at + K) {
+            out.copy_from_slice(src);
+        }
+        self.at += K;
+        out
+    }
+}

@@ -1,0 +1,196 @@
+//! The signature of one image: `D(θ)` (eq. 10) and the asymmetry map `S(θ)`
+//! (eqs. 13–17), for θ ∈ [0, π). The other half follows exactly:
+//! `D(θ + π) = D(θ)`, `S(θ + π) = −S(θ)`.
+
+use crate::accumulator::{vote_column, Accumulator, Column};
+use crate::Grid;
+
+/// How `D(θ)` reduces one accumulator column.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PeakKind {
+    /// `max_ρ A(θ, ρ)`: the paper's eq. (10).
+    SingleBin,
+    /// `max_ρ (A(θ, ρ) + A(θ, ρ + 1))`: a line that straddles two bins keeps
+    /// all its votes; lowers the median error 20–40 % (DESIGN.md §3).
+    TwoBin,
+}
+
+/// Fraction bits of [`ColumnStats::asymmetry`] and of the stored `S(θ)`.
+pub const ASYMMETRY_FRACTION_BITS: u32 = 8;
+
+/// What the method keeps of one accumulator column.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ColumnStats {
+    /// `D(θ)` for the requested [`PeakKind`] (votes).
+    pub peak: u16,
+    /// `s(θ) = Σ_{ρ=l}^{u} (ρ − m)/w · A(θ, ρ)` in Q8, with `l`, `u` the
+    /// smallest and largest bins holding votes, `w = u − l`, `m = l + w/2`
+    /// (eqs. 13–17); 0 when the column is empty or `w = 0`.
+    pub asymmetry: i32,
+}
+
+impl ColumnStats {
+    /// Reduces one column. `|asymmetry| ≤ 2⁸ · votes / 2` (each vote has
+    /// `|ρ − m| ≤ w/2`), which fits `i32` for every grid the crate accepts.
+    pub fn of<const RHO: usize>(column: &Column<RHO>, kind: PeakKind) -> Self {
+        let mut peak = 0u16;
+        let mut first = usize::MAX;
+        let mut last = 0usize;
+        let mut votes = 0u64;
+        let mut moment = 0u64;
+        let mut previous = 0u16;
+        for (b, &a) in column.iter().enumerate() {
+            let candidate = match kind {
+                PeakKind::SingleBin => a,
+                PeakKind::TwoBin => a.saturating_add(previous),
+            };
+            peak = peak.max(candidate);
+            previous = a;
+            if a != 0 {
+                first = first.min(b);
+                last = b;
+                votes += u64::from(a);
+                moment += u64::from(a) * b as u64;
+            }
+        }
+        let width = last.saturating_sub(first) as i64;
+        let asymmetry = if votes == 0 || width == 0 {
+            0
+        } else {
+            // Σ (b − m) A = Σ b A − m Σ A with m = (l + u)/2; doubled to stay integer.
+            let twice_centred = 2 * moment as i64 - (first + last) as i64 * votes as i64;
+            ((twice_centred << ASYMMETRY_FRACTION_BITS) / (2 * width)) as i32
+        };
+        Self { peak, asymmetry }
+    }
+}
+
+/// `D(θ)` and `S(θ)` of one image over θ_k = πk/HALF, `k ∈ [0, HALF)`.
+///
+/// Size: `6 · HALF + 8` bytes (`N_THETA` = 360 → 1088 B).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Signature<const HALF: usize> {
+    pub(crate) kind: PeakKind,
+    pub(crate) peak: [u16; HALF],
+    pub(crate) asymmetry: [i32; HALF],
+}
+
+impl<const HALF: usize> Signature<HALF> {
+    /// An all-zero signature (the signature of an empty grid).
+    pub const fn empty(kind: PeakKind) -> Self {
+        Self {
+            kind,
+            peak: [0; HALF],
+            asymmetry: [0; HALF],
+        }
+    }
+
+    /// Computes the signature one θ column at a time (the full matrix never
+    /// exists), using `column` as scratch. `N = 2 · HALF`.
+    pub fn stream<
+        const W: usize,
+        const H: usize,
+        const RW: usize,
+        const N: usize,
+        const RHO: usize,
+    >(
+        grid: &Grid<W, H, RW>,
+        kind: PeakKind,
+        column: &mut Column<RHO>,
+    ) -> Self {
+        const { crate::config::check_config(W, H, RW, N, HALF, RHO) };
+        let mut signature = Self::empty(kind);
+        for k in 0..HALF {
+            column.fill(0);
+            vote_column::<W, H, RW, N, RHO>(grid, k, column);
+            signature.set(k, ColumnStats::of(column, kind));
+        }
+        signature
+    }
+
+    /// The signature of a full accumulator; bit-identical to [`Self::stream`].
+    pub fn from_accumulator<const RHO: usize>(
+        accumulator: &Accumulator<HALF, RHO>,
+        kind: PeakKind,
+    ) -> Self {
+        let mut signature = Self::empty(kind);
+        for k in 0..HALF {
+            if let Some(column) = accumulator.half_column(k) {
+                signature.set(k, ColumnStats::of(column, kind));
+            }
+        }
+        signature
+    }
+
+    fn set(&mut self, k: usize, stats: ColumnStats) {
+        if let (Some(p), Some(s)) = (self.peak.get_mut(k), self.asymmetry.get_mut(k)) {
+            *p = stats.peak;
+            *s = stats.asymmetry;
+        }
+    }
+
+    /// How `D` was reduced.
+    pub const fn kind(&self) -> PeakKind {
+        self.kind
+    }
+
+    /// `D(θ_k)` in votes over the full circle, `θ_k = 2πk/(2·HALF)`; `k` is
+    /// taken modulo `2·HALF` (`D(θ + π) = D(θ)`).
+    pub fn peak(&self, k: usize) -> u16 {
+        self.peak[k % HALF]
+    }
+
+    /// `S(θ_k)` in Q8 over the full circle; `S(θ + π) = −S(θ)`.
+    pub fn asymmetry(&self, k: usize) -> i32 {
+        let s = self.asymmetry[k % HALF];
+        if (k / HALF) % 2 == 0 {
+            s
+        } else {
+            -s
+        }
+    }
+
+    /// `D(θ)` over θ ∈ [0, π).
+    pub const fn peaks(&self) -> &[u16; HALF] {
+        &self.peak
+    }
+
+    /// `S(θ)` (Q8) over θ ∈ [0, π).
+    pub const fn asymmetries(&self) -> &[i32; HALF] {
+        &self.asymmetry
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn column_stats_by_hand() {
+        let mut col = [0u16; 16];
+        col[3] = 2;
+        col[4] = 5;
+        col[9] = 1;
+        let single = ColumnStats::of(&col, PeakKind::SingleBin);
+        assert_eq!(single.peak, 5);
+        // l = 3, u = 9, m = 6, w = 6: s = (−3·2 − 2·5 + 3·1)/6 = −13/6.
+        assert_eq!(single.asymmetry, (-13 * 256) / 6);
+        assert_eq!(ColumnStats::of(&col, PeakKind::TwoBin).peak, 7);
+        let empty = ColumnStats::of(&[0u16; 16], PeakKind::TwoBin);
+        assert_eq!((empty.peak, empty.asymmetry), (0, 0));
+    }
+
+    #[test]
+    fn stream_equals_full_accumulator() {
+        let mut g = Grid::<20, 12, 1>::new();
+        g.set_cells([(1, 1), (2, 1), (3, 1), (4, 2), (5, 3), (19, 11), (7, 7)])
+            .unwrap();
+        let acc = Accumulator::<18, 32>::vote::<20, 12, 1, 36>(&g);
+        let mut column = [0u16; 32];
+        for kind in [PeakKind::SingleBin, PeakKind::TwoBin] {
+            let streamed = Signature::<18>::stream::<20, 12, 1, 36, 32>(&g, kind, &mut column);
+            assert_eq!(streamed, Signature::from_accumulator(&acc, kind));
+        }
+    }
+}
