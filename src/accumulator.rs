@@ -84,6 +84,51 @@ pub fn vote_column<
     }
 }
 
+/// Votes two adjacent columns, `k` into `first` and `k + 1` into `second`, in
+/// one pass over the grid: the bit extraction and the scan over the grid's
+/// words are shared, so a vote costs about 8 instructions on Cortex-M4
+/// instead of 10 (plus half the per-word overhead). Same result as two calls
+/// of [`vote_column`].
+pub fn vote_column_pair<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const RHO: usize,
+>(
+    grid: &Grid<W, H, RW>,
+    k: usize,
+    first: &mut Column<RHO>,
+    second: &mut Column<RHO>,
+) {
+    let table = &TrigTable::<N>::TABLE;
+    let (c1, s1) = (table.cos(k), table.sin(k));
+    let (c2, s2) = (table.cos(k + 1), table.sin(k + 1));
+    let (step1, step2) = (2 * c1, 2 * c2);
+    let mask = RHO - 1;
+    let mut y2 = H as i32 - 1;
+    let start1 = vote_offset(RHO) - (W as i32 - 1) * c1;
+    let start2 = vote_offset(RHO) - (W as i32 - 1) * c2;
+    for row in grid.words() {
+        let mut base1 = start1 + y2 * s1;
+        let mut base2 = start2 + y2 * s2;
+        for &word in row {
+            let mut bits = word;
+            while bits != 0 {
+                let col = bits.trailing_zeros() as i32;
+                let bin1 = ((base1 + col * step1) >> 16) as usize & mask;
+                let bin2 = ((base2 + col * step2) >> 16) as usize & mask;
+                first[bin1] = first[bin1].wrapping_add(1);
+                second[bin2] = second[bin2].wrapping_add(1);
+                bits &= bits - 1;
+            }
+            base1 += 32 * step1;
+            base2 += 32 * step2;
+        }
+        y2 -= 2;
+    }
+}
+
 /// The full accumulator over θ ∈ [0, π) (`HALF` columns of `RHO` bins), with
 /// the half-turn mirror for θ ∈ [π, 2π). For hosts (figures, debugging):
 /// 128² at `N_THETA` = 360 takes 180 · 256 · 2 = 92 KiB. The estimator itself

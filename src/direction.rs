@@ -22,17 +22,19 @@ pub fn paper_asymmetry<const HALF: usize>(
 ) -> i32 {
     // Over the full circle S has mean 0 (S(θ + π) = −S(θ)) and both halves
     // contribute the same products, so the half circle gives the same value.
-    let mut dot = 0i128;
-    let mut sq1 = 0i128;
-    let mut sq2 = 0i128;
+    // i16 products ≤ 2³⁰, HALF ≤ 2¹¹ terms: every sum ≤ 2⁴¹, each root ≤ 2²¹,
+    // so `dot · 2¹⁶ ≤ 2⁵⁷` fits i64.
+    let mut dot = 0i64;
+    let mut sq1 = 0i64;
+    let mut sq2 = 0i64;
     for (i, &a) in s1.asymmetries().iter().enumerate() {
         let b = s2.asymmetry(i + k);
-        dot += i128::from(a) * i128::from(b);
-        sq1 += i128::from(a) * i128::from(a);
-        sq2 += i128::from(b) * i128::from(b);
+        dot += i64::from(a) * i64::from(b);
+        sq1 += i64::from(a) * i64::from(a);
+        sq2 += i64::from(b) * i64::from(b);
     }
-    // Each root ≤ 2³⁷, so the product and `dot · 2¹⁶ ≤ 2⁸⁹` fit i128.
-    let norm = i128::from(isqrt_u128(sq1 as u128)) * i128::from(isqrt_u128(sq2 as u128));
+    let norm =
+        i64::from(sq1.unsigned_abs().isqrt() as u32) * i64::from(sq2.unsigned_abs().isqrt() as u32);
     if norm == 0 {
         return 0;
     }

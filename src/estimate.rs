@@ -202,8 +202,8 @@ impl Estimate {
 /// `RW`, `HALF` and `RHO` are derived sizes: use the
 /// [`estimator!`](crate::estimator) macro.
 ///
-/// State: one ρ column (`2·RHO` bytes) and the signature of the current image
-/// (`6·HALF + 8` bytes): 1.6 KiB at 128², `N` = 360. Work per estimate: the
+/// State: two ρ columns (`4·RHO` bytes) and the signature of the current
+/// image (`4·HALF + 2` bytes): 1.8 KiB at 128², `N` = 360. Work per estimate: the
 /// votes of `HALF` columns (occupied cells × `HALF`), `HALF²` multiply-adds of
 /// the correlation, and `2 × PROFILE_COLUMNS` column votes and profile
 /// matches per direction test (improved mode).
@@ -218,7 +218,7 @@ pub struct Estimator<
 > {
     mode: Mode,
     thresholds: Thresholds,
-    column: Column<RHO>,
+    columns: [Column<RHO>; 2],
     current: Signature<HALF>,
 }
 
@@ -237,7 +237,7 @@ impl<
         Self {
             mode,
             thresholds: Thresholds::DEFAULT,
-            column: [0; RHO],
+            columns: [[0; RHO]; 2],
             current: Signature::empty(mode.peak_kind()),
         }
     }
@@ -260,7 +260,7 @@ impl<
 
     /// Prepares `grid` as a reference for this estimator's mode.
     pub fn reference(&mut self, grid: &Grid<W, H, RW>) -> Reference<HALF, RHO> {
-        Reference::prepare::<W, H, RW, N>(grid, self.mode.peak_kind(), &mut self.column)
+        Reference::prepare::<W, H, RW, N>(grid, self.mode.peak_kind(), &mut self.columns)
     }
 
     /// Rotation of `grid` relative to two grids: prepares `first` as the
@@ -296,7 +296,7 @@ impl<
             return Estimate::no_structure();
         }
         let kind = reference.signature().kind();
-        self.current = Signature::stream::<W, H, RW, N, RHO>(grid, kind, &mut self.column);
+        self.current = Signature::stream::<W, H, RW, N, RHO>(grid, kind, &mut self.columns);
         let correlation = Correlation::of(reference.signature().peaks(), self.current.peaks());
         let Some(best) = correlation.best().copied() else {
             return Estimate::no_structure();
@@ -428,13 +428,14 @@ impl<
             // Column of image 2 where the reference column θ lands under α.
             let theta = Angle::from_steps_q16((profile.theta as i64) << 16, N);
             let m = (theta + alpha).nearest_step(N);
-            self.column.fill(0);
-            vote_column::<W, H, RW, N, RHO>(grid, m % HALF, &mut self.column);
+            let column = &mut self.columns[0];
+            column.fill(0);
+            vote_column::<W, H, RW, N, RHO>(grid, m % HALF, column);
             if m >= HALF {
-                mirror(&mut self.column);
+                mirror(column);
             }
-            let direct = match_profile(&profile.counts, &self.column, max_shift, false);
-            let flipped = match_profile(&profile.counts, &self.column, max_shift, true);
+            let direct = match_profile(&profile.counts, column, max_shift, false);
+            let flipped = match_profile(&profile.counts, column, max_shift, true);
             direct_sum += u64::from(direct.score_q16);
             flipped_sum += u64::from(flipped.score_q16);
             let normal = (table.cos(m), table.sin(m));

@@ -11,11 +11,12 @@ mod error;
 mod estimate;
 mod grid;
 mod reference;
+mod scan;
 mod signature;
 mod translation;
 mod trig;
 
-pub use accumulator::{max_votes_per_bin, vote_column, Accumulator, Column};
+pub use accumulator::{max_votes_per_bin, vote_column, vote_column_pair, Accumulator, Column};
 pub use angle::Angle;
 pub use config::{half_turn_steps, recommended_n_theta, rho_bins, row_words};
 pub use correlation::{Correlation, Peak, MAX_PEAKS};
@@ -27,6 +28,10 @@ pub use estimate::{
 };
 pub use grid::Grid;
 pub use reference::{Profile, Reference, PROFILE_COLUMNS};
+pub use scan::{
+    range_percentile, Motion, Raster, Scan, ScanStats, SensorOffset, AUTO_MAX_RADIUS_M,
+    AUTO_MIN_RADIUS_M, AUTO_PERCENTILE,
+};
 pub use signature::{ColumnStats, PeakKind, Signature, ASYMMETRY_FRACTION_BITS};
 pub use translation::{fit_translation, ColumnShift, Translation};
 pub use trig::{TrigTable, TRIG_FRACTION_BITS};

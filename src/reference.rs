@@ -23,8 +23,8 @@ pub struct Profile<const RHO: usize> {
 
 /// A prepared reference: signature plus up to [`PROFILE_COLUMNS`] profiles.
 ///
-/// Size: `6·HALF + 4·(RHO + 8) + 16` bytes or so (128², `N_THETA` = 360:
-/// 2.1 KiB); see `host-tests` for the exact `size_of` per configuration.
+/// Size: about `4·HALF + 4·(RHO + 8) + 16` bytes (128², `N_THETA` = 360:
+/// 1.8 KiB).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Reference<const HALF: usize, const RHO: usize> {
     pub(crate) signature: Signature<HALF>,
@@ -35,19 +35,20 @@ pub struct Reference<const HALF: usize, const RHO: usize> {
 const MAGIC: [u8; 4] = *b"HHR1";
 
 impl<const HALF: usize, const RHO: usize> Reference<HALF, RHO> {
-    /// Bytes of [`Self::to_bytes`]: header 16, signature `6·HALF`, profiles
+    /// Bytes of [`Self::to_bytes`]: header 16, signature `4·HALF`, profiles
     /// `4·(2 + RHO)`, checksum 4.
-    pub const BYTES: usize = 16 + 6 * HALF + PROFILE_COLUMNS * (2 + RHO) + 4;
+    pub const BYTES: usize = 16 + 4 * HALF + PROFILE_COLUMNS * (2 + RHO) + 4;
 
     /// Prepares `grid` as a reference: streams its signature, then re-votes the
     /// [`PROFILE_COLUMNS`] strongest, well-separated columns to keep their
-    /// profiles. `column` is scratch. `N = 2·HALF`.
+    /// profiles. `columns` is scratch. `N = 2·HALF`.
     pub fn prepare<const W: usize, const H: usize, const RW: usize, const N: usize>(
         grid: &Grid<W, H, RW>,
         kind: PeakKind,
-        column: &mut Column<RHO>,
+        columns: &mut [Column<RHO>; 2],
     ) -> Self {
-        let signature = Signature::<HALF>::stream::<W, H, RW, N, RHO>(grid, kind, column);
+        let signature = Signature::<HALF>::stream::<W, H, RW, N, RHO>(grid, kind, columns);
+        let [column, _] = columns;
         let mut profiles = heapless::Vec::new();
         for theta in strongest_columns(&signature) {
             column.fill(0);
@@ -156,7 +157,7 @@ impl<const HALF: usize, const RHO: usize> Reference<HALF, RHO> {
             *p = u16::from_le_bytes(r.take());
         }
         for s in signature.asymmetry.iter_mut() {
-            *s = i32::from_le_bytes(r.take());
+            *s = i16::from_le_bytes(r.take());
         }
         let mut profiles = heapless::Vec::new();
         for i in 0..PROFILE_COLUMNS {

@@ -2,7 +2,7 @@
 //! (eqs. 13–17), for θ ∈ [0, π). The other half follows exactly:
 //! `D(θ + π) = D(θ)`, `S(θ + π) = −S(θ)`.
 
-use crate::accumulator::{vote_column, Accumulator, Column};
+use crate::accumulator::{vote_column, vote_column_pair, Accumulator, Column};
 use crate::Grid;
 
 /// How `D(θ)` reduces one accumulator column.
@@ -16,23 +16,25 @@ pub enum PeakKind {
     TwoBin,
 }
 
-/// Fraction bits of [`ColumnStats::asymmetry`] and of the stored `S(θ)`.
-pub const ASYMMETRY_FRACTION_BITS: u32 = 8;
+/// Fraction bits of [`ColumnStats::asymmetry`] and of the stored `S(θ)` (Q4
+/// in an `i16`: ±2047 votes; beyond that, only for grids far denser than an
+/// outline, the value saturates).
+pub const ASYMMETRY_FRACTION_BITS: u32 = 4;
 
 /// What the method keeps of one accumulator column.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ColumnStats {
     /// `D(θ)` for the requested [`PeakKind`] (votes).
     pub peak: u16,
-    /// `s(θ) = Σ_{ρ=l}^{u} (ρ − m)/w · A(θ, ρ)` in Q8, with `l`, `u` the
-    /// smallest and largest bins holding votes, `w = u − l`, `m = l + w/2`
-    /// (eqs. 13–17); 0 when the column is empty or `w = 0`.
-    pub asymmetry: i32,
+    /// `s(θ) = Σ_{ρ=l}^{u} (ρ − m)/w · A(θ, ρ)` in Q4, saturated to `i16`,
+    /// with `l`, `u` the smallest and largest bins holding votes, `w = u − l`,
+    /// `m = l + w/2` (eqs. 13–17); 0 when the column is empty or `w = 0`.
+    pub asymmetry: i16,
 }
 
 impl ColumnStats {
-    /// Reduces one column. `|asymmetry| ≤ 2⁸ · votes / 2` (each vote has
-    /// `|ρ − m| ≤ w/2`), which fits `i32` for every grid the crate accepts.
+    /// Reduces one column. Before saturation `|s| ≤ votes / 2` (each vote has
+    /// `|ρ − m| ≤ w/2`); the i64 intermediate cannot overflow.
     pub fn of<const RHO: usize>(column: &Column<RHO>, kind: PeakKind) -> Self {
         let mut peak = 0u16;
         let mut first = usize::MAX;
@@ -60,7 +62,8 @@ impl ColumnStats {
         } else {
             // Σ (b − m) A = Σ b A − m Σ A with m = (l + u)/2; doubled to stay integer.
             let twice_centred = 2 * moment as i64 - (first + last) as i64 * votes as i64;
-            ((twice_centred << ASYMMETRY_FRACTION_BITS) / (2 * width)) as i32
+            ((twice_centred << ASYMMETRY_FRACTION_BITS) / (2 * width))
+                .clamp(i16::MIN.into(), i16::MAX.into()) as i16
         };
         Self { peak, asymmetry }
     }
@@ -68,12 +71,12 @@ impl ColumnStats {
 
 /// `D(θ)` and `S(θ)` of one image over θ_k = πk/HALF, `k ∈ [0, HALF)`.
 ///
-/// Size: `6 · HALF + 8` bytes (`N_THETA` = 360 → 1088 B).
+/// Size: `4 · HALF + 2` bytes (`N_THETA` = 360 → 722 B).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Signature<const HALF: usize> {
     pub(crate) kind: PeakKind,
     pub(crate) peak: [u16; HALF],
-    pub(crate) asymmetry: [i32; HALF],
+    pub(crate) asymmetry: [i16; HALF],
 }
 
 impl<const HALF: usize> Signature<HALF> {
@@ -86,8 +89,8 @@ impl<const HALF: usize> Signature<HALF> {
         }
     }
 
-    /// Computes the signature one θ column at a time (the full matrix never
-    /// exists), using `column` as scratch. `N = 2 · HALF`.
+    /// Computes the signature two θ columns at a time (the full matrix never
+    /// exists), using `columns` as scratch. `N = 2 · HALF`.
     pub fn stream<
         const W: usize,
         const H: usize,
@@ -97,14 +100,24 @@ impl<const HALF: usize> Signature<HALF> {
     >(
         grid: &Grid<W, H, RW>,
         kind: PeakKind,
-        column: &mut Column<RHO>,
+        columns: &mut [Column<RHO>; 2],
     ) -> Self {
         const { crate::config::check_config(W, H, RW, N, HALF, RHO) };
         let mut signature = Self::empty(kind);
-        for k in 0..HALF {
-            column.fill(0);
-            vote_column::<W, H, RW, N, RHO>(grid, k, column);
-            signature.set(k, ColumnStats::of(column, kind));
+        let [first, second] = columns;
+        let mut k = 0;
+        while k + 1 < HALF {
+            first.fill(0);
+            second.fill(0);
+            vote_column_pair::<W, H, RW, N, RHO>(grid, k, first, second);
+            signature.set(k, ColumnStats::of(first, kind));
+            signature.set(k + 1, ColumnStats::of(second, kind));
+            k += 2;
+        }
+        if k < HALF {
+            first.fill(0);
+            vote_column::<W, H, RW, N, RHO>(grid, k, first);
+            signature.set(k, ColumnStats::of(first, kind));
         }
         signature
     }
@@ -141,8 +154,8 @@ impl<const HALF: usize> Signature<HALF> {
         self.peak[k % HALF]
     }
 
-    /// `S(θ_k)` in Q8 over the full circle; `S(θ + π) = −S(θ)`.
-    pub fn asymmetry(&self, k: usize) -> i32 {
+    /// `S(θ_k)` in Q4 over the full circle; `S(θ + π) = −S(θ)`.
+    pub fn asymmetry(&self, k: usize) -> i16 {
         let s = self.asymmetry[k % HALF];
         if (k / HALF) % 2 == 0 {
             s
@@ -156,8 +169,8 @@ impl<const HALF: usize> Signature<HALF> {
         &self.peak
     }
 
-    /// `S(θ)` (Q8) over θ ∈ [0, π).
-    pub const fn asymmetries(&self) -> &[i32; HALF] {
+    /// `S(θ)` (Q4) over θ ∈ [0, π).
+    pub const fn asymmetries(&self) -> &[i16; HALF] {
         &self.asymmetry
     }
 }
@@ -175,7 +188,7 @@ mod tests {
         let single = ColumnStats::of(&col, PeakKind::SingleBin);
         assert_eq!(single.peak, 5);
         // l = 3, u = 9, m = 6, w = 6: s = (−3·2 − 2·5 + 3·1)/6 = −13/6.
-        assert_eq!(single.asymmetry, (-13 * 256) / 6);
+        assert_eq!(single.asymmetry, (-13 * 16) / 6);
         assert_eq!(ColumnStats::of(&col, PeakKind::TwoBin).peak, 7);
         let empty = ColumnStats::of(&[0u16; 16], PeakKind::TwoBin);
         assert_eq!((empty.peak, empty.asymmetry), (0, 0));
@@ -187,9 +200,9 @@ mod tests {
         g.set_cells([(1, 1), (2, 1), (3, 1), (4, 2), (5, 3), (19, 11), (7, 7)])
             .unwrap();
         let acc = Accumulator::<18, 32>::vote::<20, 12, 1, 36>(&g);
-        let mut column = [0u16; 32];
+        let mut columns = [[0u16; 32]; 2];
         for kind in [PeakKind::SingleBin, PeakKind::TwoBin] {
-            let streamed = Signature::<18>::stream::<20, 12, 1, 36, 32>(&g, kind, &mut column);
+            let streamed = Signature::<18>::stream::<20, 12, 1, 36, 32>(&g, kind, &mut columns);
             assert_eq!(streamed, Signature::from_accumulator(&acc, kind));
         }
     }

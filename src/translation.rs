@@ -52,7 +52,7 @@ pub fn fit_translation(shifts: &[ColumnShift]) -> Option<Translation> {
         let worst = shifts
             .iter()
             .enumerate()
-            .map(|(i, c)| (i, (residual_of(c, fit.0, fit.1)).abs()))
+            .map(|(i, c)| (i, F32Ext::abs(residual_of(c, fit.0, fit.1))))
             .fold((0, 0.0f32), |a, b| if b.1 > a.1 { b } else { a });
         if worst.1 > OUTLIER_PX {
             if let Some(k) = keep.get_mut(worst.0) {
@@ -69,7 +69,7 @@ pub fn fit_translation(shifts: &[ColumnShift]) -> Option<Translation> {
         sum_r2 += w * residual_of(c, x, y) * residual_of(c, x, y);
     }
     let residual = if sum_w > 0.0 {
-        (sum_r2 / sum_w).sqrt()
+        F32Ext::sqrt(sum_r2 / sum_w)
     } else {
         0.0
     };
@@ -118,13 +118,13 @@ fn solve(shifts: &[ColumnShift], keep: &[bool; 8]) -> Option<(f32, f32, Option<(
     }
     // Eigen-decomposition of the symmetric [[a, b], [b, c]].
     let mean = 0.5 * (a + c);
-    let spread = (0.25 * (a - c) * (a - c) + b * b).sqrt();
+    let spread = F32Ext::sqrt(0.25 * (a - c) * (a - c) + b * b);
     let (large, small) = (mean + spread, mean - spread);
     if !(large > 1e-6) {
         return None;
     }
     // Eigenvector of the large eigenvalue.
-    let (ex, ey) = if b.abs() > 1e-9 {
+    let (ex, ey) = if F32Ext::abs(b) > 1e-9 {
         unit(large - c, b)
     } else if a >= c {
         (1.0, 0.0)
@@ -141,7 +141,7 @@ fn solve(shifts: &[ColumnShift], keep: &[bool; 8]) -> Option<(f32, f32, Option<(
 }
 
 fn unit(x: f32, y: f32) -> (f32, f32) {
-    let n = (x * x + y * y).sqrt();
+    let n = F32Ext::sqrt(x * x + y * y);
     if n > 0.0 {
         (x / n, y / n)
     } else {
