@@ -317,7 +317,7 @@ impl<
             let (alpha_r, test_r, _) = self.resolve(reference, grid, &r);
             push_pair(&mut candidates, alpha_r, rival_score, &test_r);
         }
-        candidates.sort_unstable_by(|a, b| b.score.cmp(&a.score));
+        candidates.sort_unstable_by_key(|c| core::cmp::Reverse(c.score));
 
         let axis_ambiguous = rival_score >= best_score * self.thresholds.rival_ratio;
         let margin = test.margin();

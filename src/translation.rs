@@ -102,9 +102,12 @@ fn residual_of(c: &ColumnShift, x: f32, y: f32) -> f32 {
     nx * x + ny * y - c.shift_q16 as f32 / 65536.0
 }
 
+/// `t_x`, `t_y` (pixels) and the unobservable direction, if any.
+type Fit = (f32, f32, Option<(f32, f32)>);
+
 /// Weighted least squares over the kept columns; pseudo-inverse when one
 /// direction is unobservable.
-fn solve(shifts: &[ColumnShift], keep: &[bool; 8]) -> Option<(f32, f32, Option<(f32, f32)>)> {
+fn solve(shifts: &[ColumnShift], keep: &[bool; 8]) -> Option<Fit> {
     let (mut a, mut b, mut c, mut u, mut v) = (0.0f32, 0.0f32, 0.0f32, 0.0f32, 0.0f32);
     for (s, _) in shifts.iter().zip(keep).filter(|(_, k)| **k) {
         let w = weight(s);
@@ -120,7 +123,7 @@ fn solve(shifts: &[ColumnShift], keep: &[bool; 8]) -> Option<(f32, f32, Option<(
     let mean = 0.5 * (a + c);
     let spread = F32Ext::sqrt(0.25 * (a - c) * (a - c) + b * b);
     let (large, small) = (mean + spread, mean - spread);
-    if !(large > 1e-6) {
+    if large.is_nan() || large <= 1e-6 {
         return None;
     }
     // Eigenvector of the large eigenvalue.
