@@ -74,12 +74,20 @@ impl Correlation {
             };
         }
         let mean_term = (sum1 * sum2) as i64;
+        // When every dot product fits 32 bits (always for outlines up to
+        // 256²), accumulate in u32: one multiply-accumulate per term.
+        let max1 = u64::from(d1.iter().copied().max().unwrap_or(0));
+        let max2 = u64::from(d2.iter().copied().max().unwrap_or(0));
+        let narrow = max1 * max2 * HALF as u64 <= u64::from(u32::MAX);
         let num = |k: usize| -> i64 {
-            let mut dot = 0u64;
-            let (head, tail) = d2.split_at(k);
-            for (a, b) in d1.iter().zip(tail.iter().chain(head)) {
-                dot += u64::from(*a) * u64::from(*b);
-            }
+            // Σ_i d1[i] · d2[(i + k) mod HALF], as two straight runs.
+            let (d1_head, d1_tail) = d1.split_at(HALF - k);
+            let (d2_head, d2_tail) = d2.split_at(k);
+            let dot = if narrow {
+                u64::from(dot_u32(d1_head, d2_tail) + dot_u32(d1_tail, d2_head))
+            } else {
+                dot_u64(d1_head, d2_tail) + dot_u64(d1_tail, d2_head)
+            };
             n * dot as i64 - mean_term
         };
         let first = num(0);
@@ -138,6 +146,21 @@ impl Correlation {
 pub(crate) fn circular_distance(a: usize, b: usize, period: usize) -> usize {
     let d = a.abs_diff(b) % period.max(1);
     d.min(period - d)
+}
+
+/// `Σ a·b` where the caller has checked it fits `u32`.
+fn dot_u32(a: &[u16], b: &[u16]) -> u32 {
+    a.iter().zip(b).fold(0u32, |acc, (&x, &y)| {
+        acc.wrapping_add(u32::from(x) * u32::from(y))
+    })
+}
+
+/// `Σ a·b` in `u64`.
+fn dot_u64(a: &[u16], b: &[u16]) -> u64 {
+    a.iter()
+        .zip(b)
+        .map(|(&x, &y)| u64::from(x) * u64::from(y))
+        .sum()
 }
 
 fn moments(d: &[u16]) -> (u64, u64) {
