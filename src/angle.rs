@@ -17,23 +17,31 @@ impl Angle {
 
     /// `steps_q16 / 2¹⁶` steps of `2π / n` (`n > 0`); e.g. the θ step `k` of
     /// an `n`-step circle with a sub-step fraction.
+    /// `n` must be in `1..=MAX_STEPS` and `|steps| < 2³⁰`; otherwise the
+    /// result is `Angle::ZERO`.
     pub const fn from_steps_q16(steps_q16: i64, n: usize) -> Angle {
-        if n == 0 {
+        if n == 0 || n > Self::MAX_STEPS || steps_q16 >= 1 << 46 || steps_q16 <= -(1 << 46) {
             return Angle::ZERO;
         }
-        // turns · 2³² = steps · 2³² / n; steps_q16 · 2¹⁶ / n keeps i64 range
-        // for |steps| < 2³⁰.
+        // turns · 2³² = steps · 2³² / n = steps_q16 · 2¹⁶ / n, within i64.
         Angle(((steps_q16 << 16) / n as i64) as u32)
     }
 
-    /// This angle in steps of `2π / n`, with 16 fraction bits, in `[0, n)`.
+    /// Largest step count the step conversions accept (2²⁰).
+    pub const MAX_STEPS: usize = 1 << 20;
+
+    /// This angle in steps of `2π / n`, with 16 fraction bits, in `[0, n)`;
+    /// 0 when `n > MAX_STEPS`.
     pub const fn to_steps_q16(self, n: usize) -> u64 {
+        if n > Self::MAX_STEPS {
+            return 0;
+        }
         (self.0 as u64 * n as u64) >> 16
     }
 
     /// The nearest whole step of `2π / n`, in `[0, n)`.
     pub const fn nearest_step(self, n: usize) -> usize {
-        if n == 0 {
+        if n == 0 || n > Self::MAX_STEPS {
             return 0;
         }
         ((self.to_steps_q16(n) + (1 << 15)) >> 16) as usize % n

@@ -59,6 +59,7 @@ impl Correlation {
     /// multiply-adds). Sums fit their types for every configuration the crate
     /// accepts: values ≤ 2¹⁶, `HALF ≤ 2048` → `Σ ≤ 2⁴³`, `num ≤ 2⁵⁴`.
     pub fn of<const HALF: usize>(d1: &[u16; HALF], d2: &[u16; HALF]) -> Self {
+        const { assert!(HALF <= 2048, "HALF must be at most 2048 (N_THETA ≤ 4096)") };
         let n = HALF as i64;
         let (sum1, sq1) = moments(d1);
         let (sum2, sq2) = moments(d2);

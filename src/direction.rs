@@ -27,6 +27,7 @@ pub fn paper_asymmetry<const HALF: usize>(
     let mut dot = 0i64;
     let mut sq1 = 0i64;
     let mut sq2 = 0i64;
+    let k = k % (2 * HALF).max(1);
     for (i, &a) in s1.asymmetries().iter().enumerate() {
         let b = s2.asymmetry(i + k);
         dot += i64::from(a) * i64::from(b);
@@ -80,7 +81,8 @@ pub fn match_profile<const RHO: usize>(
     if norm == 0 {
         return ProfileMatch::default();
     }
-    let max_shift = max_shift as isize;
+    // No shift beyond the column can overlap anyway.
+    let max_shift = max_shift.min(RHO) as isize;
     let dot = |s: isize| -> u64 {
         // b ∈ [pl, pu] with b + s ∈ [ql, qu].
         let lo = (pl as isize).max(ql as isize - s);
@@ -90,10 +92,12 @@ pub fn match_profile<const RHO: usize>(
         }
         let (lo, hi) = (lo as usize, hi as usize);
         let q_lo = (lo as isize + s) as usize;
-        p[lo..=hi]
-            .iter()
-            .zip(&column[q_lo..=q_lo + (hi - lo)])
-            .map(|(&a, &b)| u64::from(a) * u64::from(b))
+        let (Some(a), Some(b)) = (p.get(lo..=hi), column.get(q_lo..=q_lo + (hi - lo))) else {
+            return 0;
+        };
+        a.iter()
+            .zip(b)
+            .map(|(&x, &y)| u64::from(x) * u64::from(y))
             .sum()
     };
     // Shifts that can overlap at all.
@@ -113,7 +117,10 @@ pub fn match_profile<const RHO: usize>(
     let (before, after) = (dot(s - 1) as i64, dot(s + 1) as i64);
     let curvature = before - 2 * peak as i64 + after;
     let offset = if curvature < 0 {
-        (((before - after) << 15) / curvature).clamp(-(1 << 15), 1 << 15)
+        ((before - after) << 15)
+            .checked_div(curvature)
+            .unwrap_or(0)
+            .clamp(-(1 << 15), 1 << 15)
     } else {
         0
     };

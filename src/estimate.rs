@@ -88,7 +88,7 @@ impl HalfTurnTest {
         if scale == Score::ZERO {
             Score::ZERO
         } else {
-            (hi - lo) / scale
+            hi.saturating_sub(lo).saturating_div(scale)
         }
     }
 }
@@ -259,8 +259,8 @@ impl<
     }
 
     /// Prepares `grid` as a reference for this estimator's mode.
-    pub fn reference(&mut self, grid: &Grid<W, H, RW>) -> Reference<HALF, RHO> {
-        Reference::prepare::<W, H, RW, N>(grid, self.mode.peak_kind(), &mut self.columns)
+    pub fn reference(&mut self, grid: &Grid<W, H, RW>) -> Reference<W, H, HALF, RHO> {
+        Reference::prepare::<RW, N>(grid, self.mode.peak_kind(), &mut self.columns)
     }
 
     /// Rotation of `grid` relative to two grids: prepares `first` as the
@@ -273,7 +273,7 @@ impl<
     /// Rotation of `grid` relative to `reference`.
     pub fn estimate(
         &mut self,
-        reference: &Reference<HALF, RHO>,
+        reference: &Reference<W, H, HALF, RHO>,
         grid: &Grid<W, H, RW>,
     ) -> Estimate {
         self.estimate_with_prior(reference, grid, None)
@@ -285,7 +285,7 @@ impl<
     /// ambiguity). Without any candidate within 3σ the vision answer stands.
     pub fn estimate_with_prior(
         &mut self,
-        reference: &Reference<HALF, RHO>,
+        reference: &Reference<W, H, HALF, RHO>,
         grid: &Grid<W, H, RW>,
         prior: Option<Prior>,
     ) -> Estimate {
@@ -317,9 +317,8 @@ impl<
             let (alpha_r, test_r, _) = self.resolve(reference, grid, &r);
             push_pair(&mut candidates, alpha_r, rival_score, &test_r);
         }
-        candidates.sort_unstable_by_key(|c| core::cmp::Reverse(c.score));
 
-        let axis_ambiguous = rival_score >= best_score * self.thresholds.rival_ratio;
+        let axis_ambiguous = rival_score >= best_score.saturating_mul(self.thresholds.rival_ratio);
         let margin = test.margin();
         let direction_ambiguous = margin < self.thresholds.direction_margin;
         let mut status = if direction_ambiguous {
@@ -378,7 +377,7 @@ impl<
     /// translation implied by the profile shifts.
     fn resolve(
         &mut self,
-        reference: &Reference<HALF, RHO>,
+        reference: &Reference<W, H, HALF, RHO>,
         grid: &Grid<W, H, RW>,
         peak: &Peak,
     ) -> (Angle, HalfTurnTest, Option<Translation>) {
@@ -413,11 +412,14 @@ impl<
     /// The improved direction test and the translation fit.
     fn profile_test(
         &mut self,
-        reference: &Reference<HALF, RHO>,
+        reference: &Reference<W, H, HALF, RHO>,
         grid: &Grid<W, H, RW>,
         alpha: Angle,
     ) -> (Angle, HalfTurnTest, Option<Translation>) {
-        let max_shift = (self.thresholds.max_shift_fraction * RHO as i32)
+        let max_shift = self
+            .thresholds
+            .max_shift_fraction
+            .saturating_mul_int(RHO as i32)
             .to_num::<i32>()
             .max(1) as usize;
         let table = &TrigTable::<N>::TABLE;
@@ -503,14 +505,37 @@ fn push_pair(
         HalfTurn::Direct => (alpha, alpha + Angle::HALF_TURN, share(d), share(f)),
         HalfTurn::Flipped => (alpha + Angle::HALF_TURN, alpha, share(f), share(d)),
     };
-    let _ = candidates.push(Candidate {
-        alpha: first,
-        score: correlation * first_share,
-    });
-    let _ = candidates.push(Candidate {
-        alpha: second,
-        score: correlation * second_share,
-    });
+    insert_sorted(
+        candidates,
+        Candidate {
+            alpha: first,
+            score: correlation * first_share,
+        },
+    );
+    insert_sorted(
+        candidates,
+        Candidate {
+            alpha: second,
+            score: correlation * second_share,
+        },
+    );
+}
+
+/// Inserts keeping the candidates sorted by score, strongest first; when full,
+/// the weakest is dropped.
+fn insert_sorted(candidates: &mut Vec<Candidate, MAX_CANDIDATES>, candidate: Candidate) {
+    let at = candidates
+        .iter()
+        .position(|c| c.score < candidate.score)
+        .unwrap_or(candidates.len());
+    if at >= MAX_CANDIDATES {
+        return;
+    }
+    if candidates.is_full() {
+        candidates.pop();
+    }
+    // Cannot fail: there is room and `at ≤ len`.
+    let _ = candidates.insert(at, candidate);
 }
 
 /// Confidence in [0, 1]: the best correlation, scaled linearly to 0 as the
@@ -519,13 +544,20 @@ fn push_pair(
 fn confidence(best: Score, rival: Score, margin: Score, t: &Thresholds) -> Score {
     let one = Score::ONE;
     let ratio = if best > Score::ZERO {
-        rival / best
+        rival.saturating_div(best)
     } else {
         one
     };
-    let axis = ((t.rival_ratio - ratio) * 10).clamp(Score::ZERO, one);
+    let axis = t
+        .rival_ratio
+        .saturating_sub(ratio)
+        .saturating_mul_int(10)
+        .clamp(Score::ZERO, one);
     let direction = if t.direction_margin > Score::ZERO {
-        ((margin - t.direction_margin) / t.direction_margin).clamp(Score::ZERO, one)
+        margin
+            .saturating_sub(t.direction_margin)
+            .saturating_div(t.direction_margin)
+            .clamp(Score::ZERO, one)
     } else {
         one
     };

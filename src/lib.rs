@@ -67,6 +67,11 @@ macro_rules! estimator {
 #[macro_export]
 macro_rules! reference {
     ($w:expr, $h:expr, $n:expr) => {
-        $crate::Reference<{ $crate::half_turn_steps($n) }, { $crate::rho_bins($w, $h) }>
+        $crate::Reference<
+            { $w },
+            { $h },
+            { $crate::half_turn_steps($n) },
+            { $crate::rho_bins($w, $h) },
+        >
     };
 }

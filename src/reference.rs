@@ -26,23 +26,25 @@ pub struct Profile<const RHO: usize> {
 /// Size: about `4·HALF + 4·(RHO + 8) + 16` bytes (128², `N_THETA` = 360:
 /// 1.8 KiB).
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Reference<const HALF: usize, const RHO: usize> {
+pub struct Reference<const W: usize, const H: usize, const HALF: usize, const RHO: usize> {
     pub(crate) signature: Signature<HALF>,
     pub(crate) profiles: heapless::Vec<Profile<RHO>, PROFILE_COLUMNS>,
     pub(crate) occupied: u32,
 }
 
-const MAGIC: [u8; 4] = *b"HHR1";
+const MAGIC: [u8; 4] = *b"HHR2";
 
-impl<const HALF: usize, const RHO: usize> Reference<HALF, RHO> {
-    /// Bytes of [`Self::to_bytes`]: header 16, signature `4·HALF`, profiles
+impl<const W: usize, const H: usize, const HALF: usize, const RHO: usize>
+    Reference<W, H, HALF, RHO>
+{
+    /// Bytes of [`Self::to_bytes`]: header 20, signature `4·HALF`, profiles
     /// `4·(2 + RHO)`, checksum 4.
-    pub const BYTES: usize = 16 + 4 * HALF + PROFILE_COLUMNS * (2 + RHO) + 4;
+    pub const BYTES: usize = 20 + 4 * HALF + PROFILE_COLUMNS * (2 + RHO) + 4;
 
     /// Prepares `grid` as a reference: streams its signature, then re-votes the
     /// [`PROFILE_COLUMNS`] strongest, well-separated columns to keep their
     /// profiles. `columns` is scratch. `N = 2·HALF`.
-    pub fn prepare<const W: usize, const H: usize, const RW: usize, const N: usize>(
+    pub fn prepare<const RW: usize, const N: usize>(
         grid: &Grid<W, H, RW>,
         kind: PeakKind,
         columns: &mut [Column<RHO>; 2],
@@ -95,6 +97,8 @@ impl<const HALF: usize, const RHO: usize> Reference<HALF, RHO> {
         })?;
         let mut w = Writer { out, at: 0 };
         w.put(&MAGIC);
+        w.put(&(W as u16).to_le_bytes());
+        w.put(&(H as u16).to_le_bytes());
         w.put(&(HALF as u16).to_le_bytes());
         w.put(&(RHO as u16).to_le_bytes());
         w.put(&[
@@ -124,12 +128,13 @@ impl<const HALF: usize, const RHO: usize> Reference<HALF, RHO> {
         Ok(Self::BYTES)
     }
 
-    /// Reads a reference written by [`Self::to_bytes`] for the same `HALF`
-    /// and `RHO`.
+    /// Reads a reference written by [`Self::to_bytes`] for the same grid size,
+    /// `HALF` and `RHO`.
     ///
     /// # Errors
     /// [`Error::BufferTooSmall`] if `bytes` is short; [`Error::InvalidReference`]
-    /// if the magic, sizes, mode, profile columns or checksum do not match.
+    /// if the magic, grid size, θ steps, ρ bins, mode, profile columns or
+    /// checksum do not match.
     pub fn from_bytes(bytes: &[u8]) -> Result<Self, Error> {
         let bytes = bytes.get(..Self::BYTES).ok_or(Error::BufferTooSmall {
             needed: Self::BYTES,
@@ -140,6 +145,8 @@ impl<const HALF: usize, const RHO: usize> Reference<HALF, RHO> {
         }
         let mut r = Reader { bytes: body, at: 0 };
         let header_ok = r.take::<4>() == MAGIC
+            && u16::from_le_bytes(r.take()) as usize == W
+            && u16::from_le_bytes(r.take()) as usize == H
             && u16::from_le_bytes(r.take()) as usize == HALF
             && u16::from_le_bytes(r.take()) as usize == RHO;
         let [kind, count, _, _] = r.take::<4>();
@@ -186,19 +193,27 @@ impl<const HALF: usize, const RHO: usize> Reference<HALF, RHO> {
 fn strongest_columns<const HALF: usize>(
     signature: &Signature<HALF>,
 ) -> heapless::Vec<usize, PROFILE_COLUMNS> {
-    let d = signature.peaks();
     let separation = (HALF / 18).max(2);
     let mut chosen: heapless::Vec<usize, PROFILE_COLUMNS> = heapless::Vec::new();
     while !chosen.is_full() {
         let next = (0..HALF)
-            .filter(|&k| d[k] > 0)
-            .filter(|&k| d[k] >= d[(k + HALF - 1) % HALF] && d[k] >= d[(k + 1) % HALF])
-            .filter(|&k| {
+            .map(|k| {
+                (
+                    k,
+                    signature.peak(k),
+                    signature.peak(k + HALF - 1),
+                    signature.peak(k + 1),
+                )
+            })
+            .filter(|&(_, value, before, after)| value > 0 && value >= before && value >= after)
+            .filter(|&(k, ..)| {
                 chosen
                     .iter()
                     .all(|&c| circular_distance(c, k, HALF) >= separation)
             })
-            .max_by_key(|&k| (d[k], core::cmp::Reverse(k)));
+            .map(|(k, value, ..)| (value, core::cmp::Reverse(k)))
+            .max()
+            .map(|(_, core::cmp::Reverse(k))| k);
         match next {
             Some(k) => {
                 let _ = chosen.push(k);

@@ -234,7 +234,8 @@ impl Raster {
         let (x, y) = (p.0 / self.cell, p.1 / self.cell);
         if self.disc {
             let r = W.min(H) as f32 * 0.5;
-            if !(x * x + y * y <= r * r) {
+            // `p` is finite (see `Scan::point`).
+            if x * x + y * y > r * r {
                 return false;
             }
         }
@@ -252,7 +253,8 @@ impl Raster {
     ) -> u32 {
         let (dx, dy) = (b.0 - a.0, b.1 - a.1);
         let length_sq = dx * dx + dy * dy;
-        if !(length_sq <= max_gap * max_gap) {
+        // Both ends are finite (see `Scan::point`).
+        if length_sq > max_gap * max_gap {
             return 0;
         }
         // Steps of at most half a cell: n = ceil(|ab| / (cell/2)), bounded by
@@ -387,7 +389,7 @@ fn sin_cos(x: f32) -> Option<(f32, f32)> {
 /// Square root of a non-negative finite `v` (Newton from the bit-halving
 /// estimate, 4 steps: exact to f32 precision over the range used here).
 fn sqrt(v: f32) -> f32 {
-    if !(v > 0.0) {
+    if v.is_nan() || v <= 0.0 {
         return 0.0;
     }
     let mut r = f32::from_bits((v.to_bits() >> 1) + 0x1fbd_1df5);

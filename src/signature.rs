@@ -62,8 +62,9 @@ impl ColumnStats {
         } else {
             // Σ (b − m) A = Σ b A − m Σ A with m = (l + u)/2; doubled to stay integer.
             let twice_centred = 2 * moment as i64 - (first + last) as i64 * votes as i64;
+            // Symmetric saturation, so that −s never overflows.
             ((twice_centred << ASYMMETRY_FRACTION_BITS) / (2 * width))
-                .clamp(i16::MIN.into(), i16::MAX.into()) as i16
+                .clamp(-i64::from(i16::MAX), i16::MAX.into()) as i16
         };
         Self { peak, asymmetry }
     }
@@ -151,13 +152,14 @@ impl<const HALF: usize> Signature<HALF> {
     /// `D(θ_k)` in votes over the full circle, `θ_k = 2πk/(2·HALF)`; `k` is
     /// taken modulo `2·HALF` (`D(θ + π) = D(θ)`).
     pub fn peak(&self, k: usize) -> u16 {
-        self.peak[k % HALF]
+        self.peak.get(k % HALF.max(1)).copied().unwrap_or(0)
     }
 
     /// `S(θ_k)` in Q4 over the full circle; `S(θ + π) = −S(θ)`.
     pub fn asymmetry(&self, k: usize) -> i16 {
-        let s = self.asymmetry[k % HALF];
-        if (k / HALF) % 2 == 0 {
+        let half = HALF.max(1);
+        let s = self.asymmetry.get(k % half).copied().unwrap_or(0);
+        if (k / half) % 2 == 0 {
             s
         } else {
             -s

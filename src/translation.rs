@@ -62,6 +62,9 @@ pub fn fit_translation(shifts: &[ColumnShift]) -> Option<Translation> {
         }
     }
     let (x, y, unobservable) = fit;
+    if !(x.is_finite() && y.is_finite()) {
+        return None;
+    }
     let (mut sum_w, mut sum_r2) = (0.0f32, 0.0f32);
     for (c, _) in shifts.iter().zip(keep).filter(|(_, k)| *k) {
         let w = weight(c);
@@ -74,16 +77,20 @@ pub fn fit_translation(shifts: &[ColumnShift]) -> Option<Translation> {
         0.0
     };
     Some(Translation {
-        x: I16F16::saturating_from_num(x),
-        y: I16F16::saturating_from_num(y),
-        residual: I16F16::saturating_from_num(residual),
-        unobservable: unobservable.map(|(ux, uy)| {
-            (
-                I16F16::saturating_from_num(ux),
-                I16F16::saturating_from_num(uy),
-            )
-        }),
+        x: to_fixed(x),
+        y: to_fixed(y),
+        residual: to_fixed(residual),
+        unobservable: unobservable.map(|(ux, uy)| (to_fixed(ux), to_fixed(uy))),
     })
+}
+
+/// Q16.16 from `f32`, saturating; NaN → 0 (never panics).
+fn to_fixed(v: f32) -> I16F16 {
+    if v.is_nan() {
+        I16F16::ZERO
+    } else {
+        I16F16::saturating_from_num(v)
+    }
 }
 
 fn weight(c: &ColumnShift) -> f32 {

@@ -5,6 +5,10 @@
 //! workspace member, and `cargo build --lib --target <bare-metal>` must work.
 #![cfg_attr(target_os = "none", no_std)]
 #[cfg(not(target_os = "none"))]
+pub mod cli;
+#[cfg(not(target_os = "none"))]
+pub mod eval;
+#[cfg(not(target_os = "none"))]
 pub mod reference;
 #[cfg(not(target_os = "none"))]
 pub mod scene;

@@ -1,1 +1,5 @@
-fn main() {}
+//! `hough-heading`: see `hough-heading --help` and [`host_tests::cli`].
+
+fn main() -> std::process::ExitCode {
+    host_tests::cli::main()
+}

@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# Firmware CI of hough-heading (issue 6): build the firmware examples for the
+# Cortex-M targets, run them under QEMU (a wrong estimate fails), then measure
+# the budgets and compare them with budgets/budgets.json (> 10 % growth fails).
+#
+#   bash .ci/firmware.sh            # CI: everything, budgets in --check mode
+#   bash .ci/firmware.sh --report   # the same, but regenerate budgets/budgets.json and budgets/TABLE.md
+#
+# Installs what it needs: qemu-system-arm 10 (.ci/install-qemu.sh) and the
+# rustup targets. The host tools (the qemu-icount plugin and the budgets
+# runner, tools/) build into target/tools.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+section() { printf '\n=== firmware: %s (at %d s) ===\n' "$*" "$SECONDS"; }
+
+budget_mode=--check
+case "${1:-}" in
+    "") ;;
+    --report) budget_mode="" ;;
+    *) echo "usage: $0 [--report]" >&2; exit 2 ;;
+esac
+
+# target triple → QEMU machine
+declare -A MACHINES=([thumbv7em-none-eabihf]=mps2-an386 [thumbv6m-none-eabi]=microbit)
+ARM_TARGETS=(thumbv7em-none-eabihf thumbv6m-none-eabi)
+EXAMPLES=(two_grids robot_loop)
+
+section "QEMU"
+bash .ci/install-qemu.sh
+rustup target add "${ARM_TARGETS[@]}" riscv32imac-unknown-none-elf
+
+section "host tools (tools/)"
+cargo fmt --manifest-path tools/Cargo.toml --all -- --check
+cargo build --manifest-path tools/Cargo.toml --target-dir target/tools
+cargo test --manifest-path tools/Cargo.toml --target-dir target/tools
+budgets=target/tools/debug/budgets
+target_dir="${CARGO_TARGET_DIR:-target}"
+
+section "clippy on the firmware examples (thumbv7em-none-eabihf)"
+cargo clippy --release --examples --target thumbv7em-none-eabihf -- -D warnings
+
+for target in "${ARM_TARGETS[@]}"; do
+    section "examples on $target (QEMU ${MACHINES[$target]})"
+    cargo build --release --examples --target "$target"
+    for example in "${EXAMPLES[@]}"; do
+        echo "--- $example"
+        "$budgets" run --machine "${MACHINES[$target]}" --timeout 30 \
+            "$target_dir/$target/release/examples/$example"
+    done
+done
+
+section "examples build for riscv32imac-unknown-none-elf"
+cargo build --release --examples --target riscv32imac-unknown-none-elf
+
+section "budgets"
+bash tools/budgets.sh $budget_mode

@@ -1,0 +1,244 @@
+//! Firmware benchmark: instructions, stack, state and flash of one
+//! configuration, measured under QEMU by `tools/budgets` (`bash
+//! tools/budgets.sh`).
+//!
+//! The configuration is fixed at build time from the environment (default
+//! 128² and `N_THETA` = 360):
+//!
+//! ```text
+//! HH_BENCH_SIDE=256 HH_BENCH_N_THETA=360 \
+//!     cargo build --release --example bench --target thumbv7em-none-eabihf
+//! ```
+//!
+//! Two `SIDE × SIDE` room outlines live in flash, the second turned by 30° and
+//! shifted. The program measures, between the marker functions
+//! [`hh_bench_start`] and [`hh_bench_stop`] (which the `qemu-icount` plugin
+//! watches): nothing (the markers' own overhead), preparing the reference, one
+//! estimate against it, and the bare vote loop over θ ∈ [0, π)
+//! (`vote_column_pair`, as the estimator runs it). Before each it
+//! logs `bench <what> sp=<stack pointer> votes=<votes>`; the plugin reports the
+//! instruction count and the lowest stack address written. It exits with 0 when
+//! the estimate is right, [`support::EXIT_WRONG_ESTIMATE`] when not, and
+//! [`EXIT_DOES_NOT_FIT`] when the estimator's state cannot fit the RAM below
+//! the stack pointer.
+//!
+//! With `HH_BENCH_BASELINE=1` the same program is built without calling the
+//! library and without the grids (every value it would log is a `black_box`),
+//! so that the flash of the library's part is the difference of the two builds
+//! minus the grids.
+#![cfg_attr(target_os = "none", no_std, no_main)]
+
+#[cfg(target_os = "none")]
+mod support;
+
+#[cfg(target_os = "none")]
+mod firmware {
+    use core::hint::black_box;
+    use core::mem::size_of;
+
+    use hough_heading::{
+        estimator, grid, half_turn_steps, reference, rho_bins, row_words, vote_column,
+        vote_column_pair, Angle, Column, Grid, Mode,
+    };
+
+    use crate::support::room::{room_words, Pose};
+    use crate::support::{self, ScopePin};
+
+    /// Image side, cells (`HH_BENCH_SIDE`).
+    const SIDE: usize = parse_or(option_env!("HH_BENCH_SIDE"), 128);
+    /// θ steps over the full circle (`HH_BENCH_N_THETA`).
+    const N_THETA: usize = parse_or(option_env!("HH_BENCH_N_THETA"), 360);
+    /// Build without the library, for the flash difference (`HH_BENCH_BASELINE=1`).
+    const BASELINE: bool = parse_or(option_env!("HH_BENCH_BASELINE"), 0) != 0;
+    /// Voted θ columns.
+    const HALF: usize = half_turn_steps(N_THETA);
+    /// ρ bins of a column.
+    const RHO: usize = rho_bins(SIDE, SIDE);
+    /// Row words of a grid.
+    const RW: usize = row_words(SIDE);
+    /// The rotation between the two grids, degrees.
+    const TURN_DEGREES: i32 = 30;
+    /// Largest accepted error, millidegrees.
+    const TOLERANCE_MDEG: i32 = 1_000;
+    /// Exit status when the estimator's state does not fit in RAM.
+    const EXIT_DOES_NOT_FIT: i32 = 3;
+    /// Start of RAM on both QEMU boards (`mps2-an386`, `microbit`).
+    const RAM_ORIGIN: u32 = 0x2000_0000;
+
+    type Estimator = estimator!(SIDE, SIDE, N_THETA);
+    type Reference = reference!(SIDE, SIDE, N_THETA);
+
+    static FIRST: grid!(SIDE, SIDE) = Grid::from_words(room_words::<SIDE, SIDE, RW>(Pose::ORIGIN));
+    static SECOND: grid!(SIDE, SIDE) = Grid::from_words(room_words::<SIDE, SIDE, RW>(Pose {
+        degrees: TURN_DEGREES as f64,
+        dx: 3.0,
+        dy: -2.0,
+    }));
+
+    /// Start marker: the plugin latches its instruction counter here. The
+    /// `black_box` keeps the call (the optimiser cannot see that it does
+    /// nothing), and its different constant keeps the two markers from being
+    /// merged into one function.
+    #[inline(never)]
+    pub fn hh_bench_start() {
+        black_box(1u32);
+    }
+
+    /// Stop marker: the plugin prints the count since [`hh_bench_start`].
+    #[inline(never)]
+    pub fn hh_bench_stop() {
+        black_box(2u32);
+    }
+
+    /// Runs `work` between the two markers.
+    #[inline(never)]
+    fn measure<T>(work: impl FnOnce() -> T) -> T {
+        hh_bench_start();
+        let out = work();
+        hh_bench_stop();
+        out
+    }
+
+    /// The stack pointer (on RISC-V, which is only built, an address in the
+    /// current frame).
+    #[inline(always)]
+    fn stack_pointer() -> u32 {
+        #[cfg(target_arch = "arm")]
+        return cortex_m::register::msp::read();
+        #[cfg(not(target_arch = "arm"))]
+        {
+            let probe = 0u32;
+            core::ptr::from_ref(black_box(&probe)) as usize as u32
+        }
+    }
+
+    /// Logs what is measured next: the budget tool pairs this line with the
+    /// plugin's count.
+    fn announce(what: &str, votes: u32) {
+        defmt::println!(
+            "bench {=str} sp={=u32} votes={=u32}",
+            what,
+            stack_pointer(),
+            votes
+        );
+    }
+
+    /// The estimate and what the run saw of it.
+    struct Outcome {
+        alpha: Angle,
+        status: &'static str,
+        pin_edges: u32,
+    }
+
+    /// The measured runs, with the library.
+    fn run() -> Outcome {
+        let mut pin = ScopePin::default();
+        let mut estimator = Estimator::new(Mode::Improved);
+        let first_votes = FIRST.occupied() * HALF as u32;
+        let second_votes = SECOND.occupied() * HALF as u32;
+
+        announce("overhead", 0);
+        measure(|| ());
+
+        announce("reference", first_votes);
+        let reference = measure(|| estimator.reference(&FIRST));
+
+        announce("estimate", second_votes);
+        let Ok(estimate) = support::timed(&mut pin, || {
+            measure(|| estimator.estimate(&reference, &SECOND))
+        });
+
+        // The estimator's vote primitives: two θ columns per pass over the
+        // grid, and one for the last column when HALF is odd.
+        let mut columns: [Column<RHO>; 2] = [[0; RHO]; 2];
+        announce("votes", second_votes);
+        measure(|| {
+            let [first, second] = &mut columns;
+            for k in (0..HALF - 1).step_by(2) {
+                vote_column_pair::<SIDE, SIDE, RW, N_THETA, RHO>(&SECOND, k, first, second);
+            }
+            if HALF % 2 == 1 {
+                vote_column::<SIDE, SIDE, RW, N_THETA, RHO>(&SECOND, HALF - 1, first);
+            }
+        });
+        black_box(&columns);
+
+        Outcome {
+            alpha: estimate.alpha,
+            status: support::status_name(estimate.status),
+            pin_edges: pin.rising_edges(),
+        }
+    }
+
+    /// The same runs and logs without the library and the grids.
+    fn run_baseline() -> Outcome {
+        let mut pin = ScopePin::default();
+        for what in ["overhead", "reference", "estimate", "votes"] {
+            announce(what, black_box(0));
+            let Ok(()) = support::timed(&mut pin, || measure(|| black_box(())));
+        }
+        Outcome {
+            alpha: Angle(black_box(0)),
+            status: black_box("baseline"),
+            pin_edges: pin.rising_edges(),
+        }
+    }
+
+    #[cfg_attr(target_arch = "arm", cortex_m_rt::entry)]
+    #[cfg_attr(target_arch = "riscv32", riscv_rt::entry)]
+    fn main() -> ! {
+        let state = size_of::<Estimator>() + size_of::<Reference>();
+        defmt::println!(
+            "config side={=usize} n_theta={=usize} estimator={=usize} reference={=usize}",
+            SIDE,
+            N_THETA,
+            size_of::<Estimator>(),
+            size_of::<Reference>()
+        );
+        if state as u32 > stack_pointer().saturating_sub(RAM_ORIGIN) {
+            defmt::println!("does-not-fit state={=usize}", state);
+            support::exit(EXIT_DOES_NOT_FIT);
+        }
+
+        let outcome = if BASELINE { run_baseline() } else { run() };
+
+        let error =
+            support::error_millidegrees(outcome.alpha, support::angle_of_degrees(TURN_DEGREES));
+        defmt::println!(
+            "result alpha_mdeg={=i32} error_mdeg={=i32} status={=str} pin_edges={=u32}",
+            support::millidegrees(outcome.alpha),
+            error,
+            outcome.status,
+            outcome.pin_edges
+        );
+        support::exit(if error.abs() <= TOLERANCE_MDEG {
+            0
+        } else {
+            support::EXIT_WRONG_ESTIMATE
+        })
+    }
+
+    /// `text` parsed as a decimal number, or `default` when absent.
+    const fn parse_or(text: Option<&str>, default: usize) -> usize {
+        let Some(text) = text else { return default };
+        let bytes = text.as_bytes();
+        assert!(!bytes.is_empty(), "empty number in HH_BENCH_*");
+        let mut value = 0;
+        let mut i = 0;
+        while i < bytes.len() {
+            assert!(
+                bytes[i].is_ascii_digit(),
+                "HH_BENCH_* must be a decimal number"
+            );
+            value = value * 10 + (bytes[i] - b'0') as usize;
+            i += 1;
+        }
+        value
+    }
+}
+
+/// On the host this example does nothing: it is firmware.
+#[cfg(not(target_os = "none"))]
+fn main() {
+    println!("bench is firmware: see tools/budgets.sh");
+}

@@ -1,0 +1,115 @@
+//! Firmware example: the robot's loop. Prepare a reference once, then estimate
+//! each new view against it.
+//!
+//! The reference is the room as the robot first saw it; each later view (here
+//! five 128² grids rasterised into flash at compile time, standing in for laser
+//! scans) costs one signature, not two. For each view the heading change of the
+//! robot is `−α` (when the robot turns left, the scene turns right; DESIGN.md
+//! §2). A GPIO pin is high during each estimate. The program exits through
+//! semihosting with status 0 when every view's α is within 1° of its known
+//! rotation, 1 otherwise. On the host this example is an empty stub.
+#![cfg_attr(target_os = "none", no_std, no_main)]
+
+#[cfg(target_os = "none")]
+mod support;
+
+#[cfg(target_os = "none")]
+mod firmware {
+    use hough_heading::{estimator, grid, row_words, Grid, Mode};
+
+    use crate::support::room::{room_words, Pose};
+    use crate::support::{self, ScopePin};
+
+    /// Image side, cells.
+    const SIDE: usize = 128;
+    /// θ steps over the full circle.
+    const N_THETA: usize = 360;
+    /// Row words of a grid.
+    const RW: usize = row_words(SIDE);
+    /// Largest accepted error, millidegrees.
+    const TOLERANCE_MDEG: i32 = 1_000;
+
+    type Estimator = estimator!(SIDE, SIDE, N_THETA);
+    type View = grid!(SIDE, SIDE);
+
+    /// The first view: the reference.
+    static HOME: View = Grid::from_words(room_words::<SIDE, SIDE, RW>(Pose::ORIGIN));
+
+    /// Scene rotation (degrees) and shift (cells) of each later view.
+    const POSES: [Pose; 5] = [
+        Pose {
+            degrees: 12.0,
+            dx: 2.0,
+            dy: 1.0,
+        },
+        Pose {
+            degrees: -45.0,
+            dx: -3.0,
+            dy: 2.0,
+        },
+        Pose {
+            degrees: 105.0,
+            dx: 4.0,
+            dy: -4.0,
+        },
+        Pose {
+            degrees: 170.0,
+            dx: 0.0,
+            dy: 3.0,
+        },
+        Pose::turned(-135.0),
+    ];
+
+    /// The later views, as the robot's sensor would deliver them.
+    static VIEWS: [View; 5] = [
+        Grid::from_words(room_words::<SIDE, SIDE, RW>(POSES[0])),
+        Grid::from_words(room_words::<SIDE, SIDE, RW>(POSES[1])),
+        Grid::from_words(room_words::<SIDE, SIDE, RW>(POSES[2])),
+        Grid::from_words(room_words::<SIDE, SIDE, RW>(POSES[3])),
+        Grid::from_words(room_words::<SIDE, SIDE, RW>(POSES[4])),
+    ];
+
+    #[cfg_attr(target_arch = "arm", cortex_m_rt::entry)]
+    #[cfg_attr(target_arch = "riscv32", riscv_rt::entry)]
+    fn main() -> ! {
+        let mut pin = ScopePin::default();
+        let mut estimator = Estimator::new(Mode::Improved);
+        let reference = estimator.reference(&HOME);
+        defmt::println!(
+            "robot_loop: reference of {=u32} cells prepared, {=usize} views to go",
+            reference.occupied(),
+            VIEWS.len()
+        );
+
+        let mut failures = 0u32;
+        for (i, (view, pose)) in VIEWS.iter().zip(POSES).enumerate() {
+            let Ok(estimate) = support::timed(&mut pin, || estimator.estimate(&reference, view));
+            let expected = support::angle_of_degrees(pose.degrees as i32);
+            let error = support::error_millidegrees(estimate.alpha, expected);
+            let ok = error.abs() <= TOLERANCE_MDEG;
+            failures += u32::from(!ok);
+            defmt::println!(
+                "view {=usize}: alpha = {=i32} mdeg, heading change = {=i32} mdeg, error {=i32} mdeg, {=str}, {=str}",
+                i,
+                support::millidegrees(estimate.alpha),
+                -support::millidegrees(estimate.alpha),
+                error,
+                support::status_name(estimate.status),
+                if ok { "ok" } else { "WRONG" }
+            );
+        }
+
+        if failures == 0 && pin.rising_edges() == VIEWS.len() as u32 {
+            defmt::println!("robot_loop: PASS");
+            support::exit(0)
+        }
+        defmt::println!("robot_loop: FAIL ({=u32} wrong)", failures);
+        support::exit(support::EXIT_WRONG_ESTIMATE)
+    }
+}
+
+/// On the host this example does nothing: it is firmware.
+#[cfg(not(target_os = "none"))]
+fn main() {
+    println!("robot_loop is firmware: build it for thumbv7em-none-eabihf or thumbv6m-none-eabi (.ci/firmware.sh)");
+}

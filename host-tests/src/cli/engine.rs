@@ -1,0 +1,254 @@
+//! The fixed estimator configurations the tool offers, behind one trait.
+//!
+//! The library's estimator is const-generic (`estimator!(W, H, N_THETA)`), so
+//! every grid size × θ resolution the tool offers is compiled in separately;
+//! [`engine`] picks one at run time.
+
+use hough_heading::{
+    half_turn_steps, rho_bins, row_words, Accumulator, Correlation, Estimate, Estimator, Grid,
+    Mode, Raster, Scan, ScanStats, Signature, Thresholds,
+};
+
+use crate::reference::Image;
+
+/// Which of the two views of a pair.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum View {
+    /// The reference (image A, scan 1).
+    First,
+    /// The new view (image B, scan 2).
+    Second,
+}
+
+impl View {
+    fn index(self) -> usize {
+        match self {
+            View::First => 0,
+            View::Second => 1,
+        }
+    }
+}
+
+/// What the figures show of one pair, in plain vectors.
+#[derive(Clone, Debug)]
+pub struct Figures {
+    /// θ steps over the half circle (`N_THETA / 2`).
+    pub half: usize,
+    /// ρ bins per column; bin `b` is ρ = `b − rho/2` pixels.
+    pub rho: usize,
+    /// Both accumulators over θ ∈ [0, π), column-major: `acc[k·rho + b]`.
+    pub accumulators: [Vec<u16>; 2],
+    /// `D(θ)` of both views over θ ∈ [0, π).
+    pub signatures: [Vec<u16>; 2],
+    /// `S(θ)` of both views over θ ∈ [0, π), Q8.
+    pub asymmetries: [Vec<i32>; 2],
+    /// Pearson correlation `r(k)` of `D1(θ)` and `D2(θ + k·Δθ)`, `k ∈ [0, half)`.
+    pub correlation: Vec<f64>,
+    /// Shift of the strongest correlation peak.
+    pub best: Option<usize>,
+    /// Shift of the rival peak (the strongest at least 5° from the best).
+    pub rival: Option<usize>,
+}
+
+/// One compiled configuration: two grids and an estimator per mode.
+pub trait Engine {
+    /// Grid side, cells.
+    fn size(&self) -> usize;
+    /// θ steps over the full circle.
+    fn n_theta(&self) -> usize;
+    /// Replaces the status thresholds of both modes.
+    fn set_thresholds(&mut self, thresholds: Thresholds);
+    /// Clears the grid of `view` and draws `scan` into it.
+    fn rasterize(&mut self, view: View, scan: &Scan<'_>, raster: &Raster) -> ScanStats;
+    /// Replaces the grid of `view` by `image` (cells beyond the grid are
+    /// ignored; callers check the size first).
+    fn load(&mut self, view: View, image: &Image);
+    /// The grid of `view` as an image.
+    fn image(&self, view: View) -> Image;
+    /// Rotation (and translation) of the second view relative to the first.
+    fn estimate(&mut self, mode: Mode) -> Estimate;
+    /// Accumulators, signatures and correlation of the two grids (for plots).
+    fn figures(&self, mode: Mode) -> Figures;
+}
+
+struct Config<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+> {
+    grids: [Grid<W, H, RW>; 2],
+    improved: Estimator<W, H, RW, N, HALF, RHO>,
+    paper: Estimator<W, H, RW, N, HALF, RHO>,
+}
+
+impl<
+        const W: usize,
+        const H: usize,
+        const RW: usize,
+        const N: usize,
+        const HALF: usize,
+        const RHO: usize,
+    > Engine for Config<W, H, RW, N, HALF, RHO>
+{
+    fn size(&self) -> usize {
+        W
+    }
+
+    fn n_theta(&self) -> usize {
+        N
+    }
+
+    fn set_thresholds(&mut self, thresholds: Thresholds) {
+        self.improved = Estimator::new(Mode::Improved).with_thresholds(thresholds);
+        self.paper = Estimator::new(Mode::Paper).with_thresholds(thresholds);
+    }
+
+    fn rasterize(&mut self, view: View, scan: &Scan<'_>, raster: &Raster) -> ScanStats {
+        let grid = &mut self.grids[view.index()];
+        grid.clear_all();
+        raster.rasterize(scan, grid)
+    }
+
+    fn load(&mut self, view: View, image: &Image) {
+        let grid = &mut self.grids[view.index()];
+        grid.clear_all();
+        // Cells beyond W × H are rejected by the grid; the caller checked the size.
+        let _ = grid.set_cells(image.occupied());
+    }
+
+    fn image(&self, view: View) -> Image {
+        let grid = &self.grids[view.index()];
+        let mut image = Image::new(W, H);
+        for row in 0..H {
+            for col in 0..W {
+                if grid.get(col, row) {
+                    image.set(col, row, true);
+                }
+            }
+        }
+        image
+    }
+
+    fn estimate(&mut self, mode: Mode) -> Estimate {
+        let [first, second] = &self.grids;
+        match mode {
+            Mode::Improved => self.improved.estimate_pair(first, second),
+            Mode::Paper => self.paper.estimate_pair(first, second),
+        }
+    }
+
+    fn figures(&self, mode: Mode) -> Figures {
+        let kind = mode.peak_kind();
+        let mut accumulators: [Vec<u16>; 2] = Default::default();
+        let mut signatures: [Vec<u16>; 2] = Default::default();
+        let mut asymmetries: [Vec<i32>; 2] = Default::default();
+        for (i, grid) in self.grids.iter().enumerate() {
+            // 256² × 720 is 368 KiB: keep it off the stack.
+            let acc = Box::new(Accumulator::<HALF, RHO>::vote::<W, H, RW, N>(grid));
+            let sig = Signature::from_accumulator(&acc, kind);
+            accumulators[i] = (0..HALF)
+                .flat_map(|k| acc.half_column(k).into_iter().flatten().copied())
+                .collect();
+            signatures[i] = sig.peaks().to_vec();
+            asymmetries[i] = sig.asymmetries().iter().map(|&v| i32::from(v)).collect();
+        }
+        let d1: [u16; HALF] = signature_array(&signatures[0]);
+        let d2: [u16; HALF] = signature_array(&signatures[1]);
+        let correlation = Correlation::of(&d1, &d2);
+        Figures {
+            half: HALF,
+            rho: RHO,
+            correlation: pearson_curve(&signatures[0], &signatures[1]),
+            best: correlation.best().map(|p| p.shift),
+            rival: correlation.rival((N / 72).max(2)).map(|p| p.shift),
+            accumulators,
+            signatures,
+            asymmetries,
+        }
+    }
+}
+
+fn signature_array<const HALF: usize>(values: &[u16]) -> [u16; HALF] {
+    let mut out = [0u16; HALF];
+    for (o, v) in out.iter_mut().zip(values) {
+        *o = *v;
+    }
+    out
+}
+
+/// `r(k)` = Pearson correlation of `d1(θ)` and `d2(θ + k)` (circular), in f64.
+fn pearson_curve(d1: &[u16], d2: &[u16]) -> Vec<f64> {
+    let n = d1.len();
+    let mean = |d: &[u16]| d.iter().map(|&v| f64::from(v)).sum::<f64>() / n.max(1) as f64;
+    let (m1, m2) = (mean(d1), mean(d2));
+    let var = |d: &[u16], m: f64| d.iter().map(|&v| (f64::from(v) - m).powi(2)).sum::<f64>();
+    let den = (var(d1, m1) * var(d2, m2)).sqrt();
+    (0..n)
+        .map(|k| {
+            if den == 0.0 {
+                return 0.0;
+            }
+            let num: f64 = (0..n)
+                .map(|i| (f64::from(d1[i]) - m1) * (f64::from(d2[(i + k) % n]) - m2))
+                .sum();
+            num / den
+        })
+        .collect()
+}
+
+macro_rules! configurations {
+    ($(($size:literal, $n:literal)),* $(,)?) => {
+        /// Every `(grid side, N_THETA)` the tool is compiled for.
+        pub const CONFIGURATIONS: &[(usize, usize)] = &[$(($size, $n)),*];
+
+        /// The engine for a `size × size` grid and `n_theta` θ steps over the
+        /// full circle, if that configuration is compiled in.
+        pub fn engine(size: usize, n_theta: usize) -> Option<Box<dyn Engine>> {
+            match (size, n_theta) {
+                $(($size, $n) => Some(Box::new(Config::<
+                    $size,
+                    $size,
+                    { row_words($size) },
+                    $n,
+                    { half_turn_steps($n) },
+                    { rho_bins($size, $size) },
+                > {
+                    grids: [Grid::new(), Grid::new()],
+                    improved: Estimator::new(Mode::Improved),
+                    paper: Estimator::new(Mode::Paper),
+                })),)*
+                _ => None,
+            }
+        }
+    };
+}
+
+configurations!(
+    (64, 180),
+    (64, 360),
+    (64, 720),
+    (128, 180),
+    (128, 360),
+    (128, 720),
+    (256, 180),
+    (256, 360),
+    (256, 720),
+);
+
+/// The grid sides compiled in, ascending.
+pub fn sizes() -> Vec<usize> {
+    let mut s: Vec<usize> = CONFIGURATIONS.iter().map(|c| c.0).collect();
+    s.dedup();
+    s
+}
+
+/// The θ resolutions compiled in, ascending.
+pub fn n_thetas() -> Vec<usize> {
+    let mut n: Vec<usize> = CONFIGURATIONS.iter().map(|c| c.1).collect();
+    n.sort_unstable();
+    n.dedup();
+    n
+}

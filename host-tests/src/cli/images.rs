@@ -1,0 +1,167 @@
+//! Reading binary images (PBM `P1`/`P4`, PNG, other PNM) and fitting them to
+//! a supported grid size.
+
+use std::path::Path;
+
+use image::ImageReader;
+
+use super::Fatal;
+use crate::reference::Image;
+
+/// How an image becomes occupied cells.
+#[derive(Clone, Copy, Debug)]
+pub struct Threshold {
+    /// A pixel is occupied when its grey level (0–255, after compositing any
+    /// alpha over white) is below this (dark = occupied, as in PBM where 1 is
+    /// black).
+    pub level: u8,
+    /// Occupied = bright instead (white-on-black images).
+    pub invert: bool,
+}
+
+/// Reads `path` as a binary image: grey levels are thresholded, colour is
+/// converted to grey first.
+///
+/// # Errors
+/// A message naming the file when it cannot be read or decoded (truncated,
+/// unknown format), or has no occupied pixel.
+pub fn read(path: &Path, threshold: Threshold) -> Result<Image, Fatal> {
+    let name = path.display();
+    let decoded = ImageReader::open(path)
+        .map_err(|e| Fatal::io(format!("{name}: cannot open: {e}")))?
+        .with_guessed_format()
+        .map_err(|e| Fatal::io(format!("{name}: cannot read: {e}")))?
+        .decode()
+        .map_err(|e| Fatal::io(format!("{name}: not a readable PBM/PNG image: {e}")))?;
+    let grey = decoded.to_luma_alpha8();
+    let (width, height) = (grey.width() as usize, grey.height() as usize);
+    let mut image = Image::new(width, height);
+    for (col, row, px) in grey.enumerate_pixels() {
+        let [luma, alpha] = px.0;
+        // Composite over white: transparent pixels are free.
+        let level = (u32::from(luma) * u32::from(alpha) + 255 * (255 - u32::from(alpha))) / 255;
+        let dark = level < u32::from(threshold.level);
+        if dark != threshold.invert {
+            image.set(col as usize, row as usize, true);
+        }
+    }
+    if image.count() == 0 {
+        return Err(Fatal::io(format!(
+            "{name}: no occupied pixel ({width}×{height}, threshold {}{}); \
+             try --threshold or --invert",
+            threshold.level,
+            if threshold.invert { ", inverted" } else { "" }
+        )));
+    }
+    Ok(image)
+}
+
+/// How to bring an image to the grid size.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Fit {
+    /// The image must already have the grid's size.
+    None,
+    /// Centre the image in the grid; cells beyond the grid are dropped
+    /// (pads a smaller image, crops a larger one).
+    Centre,
+}
+
+/// An image placed in a `size × size` grid, with the offset that maps its own
+/// centred coordinates to the grid's: `p_grid = p_image + offset` (pixels,
+/// y up).
+#[derive(Clone, Debug)]
+pub struct Placed {
+    /// The fitted image, `size × size`.
+    pub image: Image,
+    /// `(ox, oy)`.
+    pub offset: (f64, f64),
+    /// Occupied pixels that fell outside the grid (cropping).
+    pub cropped: usize,
+}
+
+/// Places `image` (read from `name`) in a `size × size` grid.
+///
+/// # Errors
+/// With [`Fit::None`], when the image is not `size × size`; when nothing is
+/// left after cropping.
+pub fn place(image: &Image, name: &str, size: usize, fit: Fit) -> Result<Placed, Fatal> {
+    if fit == Fit::None && (image.width != size || image.height != size) {
+        return Err(Fatal::io(format!(
+            "{name}: image is {}×{}, the grid is {size}×{size}; use an image of a supported \
+             size (--size, see --help) or --fit centre to pad/crop it",
+            image.width, image.height
+        )));
+    }
+    // Integer placement: column c of the image goes to c + left.
+    let left = (size as i64 - image.width as i64).div_euclid(2);
+    let top = (size as i64 - image.height as i64).div_euclid(2);
+    let mut out = Image::new(size, size);
+    let mut cropped = 0;
+    for (col, row) in image.occupied() {
+        let (c, r) = (col as i64 + left, row as i64 + top);
+        if (0..size as i64).contains(&c) && (0..size as i64).contains(&r) {
+            out.set(c as usize, r as usize, true);
+        } else {
+            cropped += 1;
+        }
+    }
+    if out.count() == 0 {
+        return Err(Fatal::io(format!(
+            "{name}: no occupied pixel left inside the {size}×{size} grid"
+        )));
+    }
+    // x_grid = c + left − (S−1)/2 = x_image + (W−1)/2 + left − (S−1)/2; y likewise, negated.
+    let ox = left as f64 + (image.width as f64 - 1.0) / 2.0 - (size as f64 - 1.0) / 2.0;
+    let oy = -(top as f64 + (image.height as f64 - 1.0) / 2.0 - (size as f64 - 1.0) / 2.0);
+    Ok(Placed {
+        image: out,
+        offset: (ox, oy),
+        cropped,
+    })
+}
+
+/// The translation in the images' own centred coordinates from the one
+/// measured on the placed grids: with `p₁' = p₁ + c₁`, `p₂' = p₂ + c₂` and
+/// `p₂' = R(α)p₁' + t'`, `t = t' + R(α)c₁ − c₂`.
+pub fn unplace_translation(
+    t: (f64, f64),
+    alpha_rad: f64,
+    c1: (f64, f64),
+    c2: (f64, f64),
+) -> (f64, f64) {
+    let (s, c) = alpha_rad.sin_cos();
+    (
+        t.0 + c * c1.0 - s * c1.1 - c2.0,
+        t.1 + s * c1.0 + c * c1.1 - c2.1,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn placement_offset_matches_the_centred_coordinates() {
+        let mut image = Image::new(5, 3);
+        image.set(4, 0, true);
+        let placed = place(&image, "x", 8, Fit::Centre).unwrap();
+        let (col, row) = placed.image.occupied()[0];
+        let (xi, yi) = image.coords(4, 0);
+        let (xg, yg) = placed.image.coords(col, row);
+        assert_eq!((xg - xi, yg - yi), placed.offset);
+    }
+
+    #[test]
+    fn translation_is_mapped_back() {
+        // A point p1 in A, p2 = R p1 + t in B; both images shifted.
+        let (alpha, t) = (0.7f64, (3.0, -2.0));
+        let (c1, c2) = ((0.5, -1.0), (-0.5, 0.5));
+        let p1 = (2.0, 1.0);
+        let (s, c) = alpha.sin_cos();
+        let p2 = (c * p1.0 - s * p1.1 + t.0, s * p1.0 + c * p1.1 + t.1);
+        let (q1, q2) = ((p1.0 + c1.0, p1.1 + c1.1), (p2.0 + c2.0, p2.1 + c2.1));
+        let t_placed = (q2.0 - (c * q1.0 - s * q1.1), q2.1 - (s * q1.0 + c * q1.1));
+        let back = unplace_translation(t_placed, alpha, c1, c2);
+        assert!((back.0 - t.0).abs() < 1e-12 && (back.1 - t.1).abs() < 1e-12);
+    }
+}

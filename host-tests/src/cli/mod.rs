@@ -1,0 +1,672 @@
+//! The `hough-heading` command-line tool: rotation (and translation) between
+//! two binary images or laser scans, a demo on bundled data, a real-data
+//! summary and figures.
+//!
+//! Exit status: 0 success; 1 some scan pairs failed (their output lines have
+//! `"status": "error"`); 2 usage error, unreadable file, wrong image size or
+//! empty image.
+
+pub mod demo;
+pub mod engine;
+pub mod images;
+pub mod plot;
+pub mod scans;
+pub mod summary;
+
+use std::fmt;
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use hough_heading::{Mode, Score, Thresholds};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+
+use engine::{engine, Engine, View, CONFIGURATIONS};
+use images::{Fit, Threshold};
+use scans::{OutputLine, PairRecord, RasterOptions, Truth};
+use summary::{Method, Summary};
+
+/// Exit status: some scan pairs failed.
+pub const EXIT_PAIR_ERRORS: u8 = 1;
+/// Exit status: usage error or an unusable input file.
+pub const EXIT_FATAL: u8 = 2;
+
+const AFTER_HELP: &str = "\
+Compiled configurations (--size × --n-theta): 64, 128, 256 × 180, 360, 720.
+
+Conventions: α is the counter-clockwise rotation of the scene (a point p of A
+appears in B at R(α)·p + t, t in pixels, x right, y up, origin at the image
+centre). For scans, dθ = −α is the robot's heading change and (dx, dy) its
+displacement in the frame of scan 1, as in the pair files.
+
+Exit status: 0 success; 1 some scan pairs failed (their output lines say
+\"status\": \"error\"); 2 usage error, unreadable file, wrong image size or empty
+image.";
+
+/// Rotation (and translation) between two binary images or 2D laser scans,
+/// by the doubled-line Hough signature (no_std fixed-point library).
+#[derive(Debug, Parser)]
+#[command(name = "hough-heading", version, after_help = AFTER_HELP)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Rotation of image B relative to image A (PBM P1/P4, PNG, PGM).
+    Images(ImagesArgs),
+    /// One JSON line per scan pair of a pair file (`-` reads stdin).
+    Scans(ScansArgs),
+    /// Runs on the bundled example data and prints a short report.
+    Demo(DemoArgs),
+    /// PNG figures: grids, accumulators, signatures, correlation, asymmetry.
+    Plot(PlotArgs),
+}
+
+/// Which pipeline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ModeArg {
+    /// Two-bin D, sub-step peak, column-profile direction test, translation.
+    Improved,
+    /// The paper as written (asymmetry-map direction test, no translation).
+    Paper,
+}
+
+impl From<ModeArg> for Mode {
+    fn from(m: ModeArg) -> Mode {
+        match m {
+            ModeArg::Improved => Mode::Improved,
+            ModeArg::Paper => Mode::Paper,
+        }
+    }
+}
+
+/// Options shared by every estimating subcommand.
+#[derive(Clone, Debug, Args)]
+pub struct EstimatorArgs {
+    /// Pipeline.
+    #[arg(long, value_enum, default_value_t = ModeArg::Improved)]
+    pub mode: ModeArg,
+    /// θ steps over the full circle: 180, 360 or 720.
+    #[arg(long = "n-theta", default_value_t = 360)]
+    pub n_theta: usize,
+    /// Tuning: flag `ambiguous_axis` when the rival correlation peak reaches
+    /// this fraction of the best (library default 0.9).
+    #[arg(long, value_name = "RATIO")]
+    pub rival_ratio: Option<f64>,
+    /// Tuning: flag `ambiguous_direction` when the α vs α + 180° margin is
+    /// below this (library default 0.05).
+    #[arg(long, value_name = "MARGIN")]
+    pub direction_margin: Option<f64>,
+    /// Tuning: largest translation the profile test searches, as a fraction
+    /// of the ρ range (library default 0.25).
+    #[arg(long, value_name = "FRACTION")]
+    pub max_shift: Option<f64>,
+}
+
+impl EstimatorArgs {
+    /// The engine for `size` with these options.
+    ///
+    /// # Errors
+    /// An unknown configuration or a threshold outside [0, 1].
+    pub fn engine(&self, size: usize) -> Result<Box<dyn Engine>, Fatal> {
+        let mut engine = engine_for(size, self.n_theta)?;
+        let mut t = Thresholds::DEFAULT;
+        for (name, value, field) in [
+            ("--rival-ratio", self.rival_ratio, &mut t.rival_ratio),
+            (
+                "--direction-margin",
+                self.direction_margin,
+                &mut t.direction_margin,
+            ),
+            ("--max-shift", self.max_shift, &mut t.max_shift_fraction),
+        ] {
+            if let Some(v) = value {
+                if !(0.0..=1.0).contains(&v) {
+                    return Err(Fatal::usage(format!("{name} {v}: must be in [0, 1]")));
+                }
+                *field = Score::from_num(v);
+            }
+        }
+        engine.set_thresholds(t);
+        Ok(engine)
+    }
+}
+
+/// How images are read.
+#[derive(Clone, Debug, Args)]
+pub struct ImageArgs {
+    /// Grid side (64, 128 or 256). Default: the images' size when it is one
+    /// of these; with `--fit centre`, the smallest that holds both images
+    /// (256 if none does).
+    #[arg(long)]
+    pub size: Option<usize>,
+    /// `none`: the images must have the grid's size. `centre`: centre each
+    /// image in the grid, padding or cropping (the translation is reported
+    /// in the original images' centred coordinates).
+    #[arg(long, value_enum, default_value_t = Fit::None)]
+    pub fit: Fit,
+    /// Grey level (0–255) below which a pixel is occupied.
+    #[arg(long, default_value_t = 128)]
+    pub threshold: u8,
+    /// Bright pixels are occupied (white-on-black images).
+    #[arg(long)]
+    pub invert: bool,
+}
+
+/// `images A B`.
+#[derive(Clone, Debug, Args)]
+pub struct ImagesArgs {
+    /// Reference image A.
+    pub a: PathBuf,
+    /// Image B.
+    pub b: PathBuf,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// How images are read.
+    #[command(flatten)]
+    pub image: ImageArgs,
+    /// Estimator options.
+    #[command(flatten)]
+    pub estimator: EstimatorArgs,
+}
+
+/// How scans become grids.
+#[derive(Clone, Debug, Args)]
+pub struct ScanGridArgs {
+    /// Grid side: 64, 128 or 256.
+    #[arg(long, default_value_t = 256)]
+    pub size: usize,
+    /// Metres per cell. Default: per pair, the window radius is the 90th
+    /// percentile of both scans' valid ranges, clamped to 2–40 m.
+    #[arg(long)]
+    pub cell: Option<f32>,
+    /// Also draw segments between neighbouring beams at most this far apart
+    /// (metres).
+    #[arg(long, value_name = "METRES")]
+    pub connect: Option<f32>,
+    /// Keep only the disc inscribed in the grid.
+    #[arg(long)]
+    pub disc: bool,
+}
+
+impl ScanGridArgs {
+    fn options(&self) -> Result<RasterOptions, Fatal> {
+        if let Some(cell) = self.cell.filter(|c| !(c.is_finite() && *c > 0.0)) {
+            return Err(Fatal::usage(format!(
+                "--cell {cell}: must be a positive number of metres"
+            )));
+        }
+        Ok(RasterOptions {
+            cell: self.cell,
+            connect: self.connect,
+            disc: self.disc,
+        })
+    }
+}
+
+/// `scans PAIRS.jsonl`.
+#[derive(Clone, Debug, Args)]
+pub struct ScansArgs {
+    /// Pair file, one JSON object per line (format of ../shared/data/README.md);
+    /// `-` reads stdin.
+    pub pairs: PathBuf,
+    /// Compare with the file's ground truth; print the table to stderr.
+    #[arg(long)]
+    pub summary: bool,
+    /// Also run the other mode, for the summary (stdout keeps `--mode`).
+    #[arg(long)]
+    pub compare: bool,
+    /// Only the first N lines.
+    #[arg(long, value_name = "N")]
+    pub limit: Option<usize>,
+    /// No progress bar or timing line.
+    #[arg(long, short)]
+    pub quiet: bool,
+    /// How scans become grids.
+    #[command(flatten)]
+    pub grid: ScanGridArgs,
+    /// Estimator options.
+    #[command(flatten)]
+    pub estimator: EstimatorArgs,
+}
+
+/// `demo`.
+#[derive(Clone, Debug, Args)]
+pub struct DemoArgs {
+    /// Directory of the bundled data.
+    #[arg(long, default_value = demo::DATA_DIR)]
+    pub data: PathBuf,
+    /// Regenerate the bundled synthetic images into `--data` and exit.
+    #[arg(long, hide = true)]
+    pub regenerate: bool,
+}
+
+/// `plot`.
+#[derive(Clone, Debug, Args)]
+pub struct PlotArgs {
+    /// What to plot.
+    #[command(subcommand)]
+    pub what: PlotWhat,
+    /// Output directory (created).
+    #[arg(long, short, global = true, default_value = "figures")]
+    pub out: PathBuf,
+}
+
+/// `plot images` or `plot scans`.
+#[derive(Clone, Debug, Subcommand)]
+pub enum PlotWhat {
+    /// Figures of two images.
+    Images {
+        /// Reference image A.
+        a: PathBuf,
+        /// Image B.
+        b: PathBuf,
+        /// How images are read.
+        #[command(flatten)]
+        image: ImageArgs,
+        /// Estimator options.
+        #[command(flatten)]
+        estimator: EstimatorArgs,
+    },
+    /// Figures of scan pairs of a pair file.
+    Scans {
+        /// Pair file.
+        pairs: PathBuf,
+        /// 0-based line indices, comma separated.
+        #[arg(long, value_delimiter = ',', required = true)]
+        index: Vec<usize>,
+        /// How scans become grids.
+        #[command(flatten)]
+        grid: ScanGridArgs,
+        /// Estimator options.
+        #[command(flatten)]
+        estimator: EstimatorArgs,
+    },
+}
+
+/// A fatal error: printed to stderr, exit status 2.
+#[derive(Debug)]
+pub struct Fatal(String);
+
+impl Fatal {
+    /// An unusable input or output file (the message names it).
+    pub fn io(message: impl Into<String>) -> Self {
+        Self(message.into())
+    }
+
+    /// An unusable option value.
+    pub fn usage(message: impl Into<String>) -> Self {
+        Self(message.into())
+    }
+}
+
+impl fmt::Display for Fatal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+/// Parses the arguments, runs, and maps the outcome to the exit status.
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(&cli) {
+        Ok(0) => ExitCode::SUCCESS,
+        Ok(_) => ExitCode::from(EXIT_PAIR_ERRORS),
+        Err(e) => {
+            eprintln!("hough-heading: error: {e}");
+            ExitCode::from(EXIT_FATAL)
+        }
+    }
+}
+
+/// Runs one command; the number of failed pairs.
+///
+/// # Errors
+/// A [`Fatal`] error for unusable arguments or input files.
+pub fn run(cli: &Cli) -> Result<usize, Fatal> {
+    match &cli.command {
+        Command::Images(args) => images_command(args).map(|()| 0),
+        Command::Scans(args) => scans_command(args),
+        Command::Demo(args) => demo::run(args).map(|()| 0),
+        Command::Plot(args) => plot::run(args).map(|()| 0),
+    }
+}
+
+/// The engine for a configuration, or a usage error listing the compiled ones.
+pub fn engine_for(size: usize, n_theta: usize) -> Result<Box<dyn Engine>, Fatal> {
+    engine(size, n_theta).ok_or_else(|| {
+        let list: Vec<String> = CONFIGURATIONS
+            .iter()
+            .map(|(s, n)| format!("{s}/{n}"))
+            .collect();
+        Fatal::usage(format!(
+            "no compiled configuration for --size {size} --n-theta {n_theta}; available \
+             (size/n-theta): {}",
+            list.join(", ")
+        ))
+    })
+}
+
+/// The result of `images`: α, status, candidates and translation of B
+/// relative to A.
+#[derive(Clone, Debug, Serialize)]
+pub struct ImagesResult {
+    /// Rotation of B relative to A, counter-clockwise, degrees in (−180, 180].
+    pub alpha_deg: f64,
+    /// Status word.
+    pub status: &'static str,
+    /// Confidence in [0, 1].
+    pub confidence: f64,
+    /// Candidate rotations, strongest first.
+    pub candidates: Vec<CandidateJson>,
+    /// Translation x, pixels (null when not estimated).
+    pub tx_px: Option<f64>,
+    /// Translation y (up), pixels.
+    pub ty_px: Option<f64>,
+    /// Grid side used.
+    pub size: usize,
+    /// θ steps used.
+    pub n_theta: usize,
+}
+
+/// One candidate in the `images` JSON.
+#[derive(Clone, Debug, Serialize)]
+pub struct CandidateJson {
+    /// Rotation, degrees.
+    pub alpha_deg: f64,
+    /// Score in [0, 1].
+    pub score: f64,
+}
+
+/// An engine holding two images, and each image's offset in the grid
+/// (`p_grid = p_image + offset`, see [`images::Placed`]).
+pub type Loaded = (Box<dyn Engine>, [(f64, f64); 2]);
+
+/// Reads A and B and places both on a common grid: the engine holds them.
+pub fn load_images(
+    a: &Path,
+    b: &Path,
+    args: &ImageArgs,
+    estimator: &EstimatorArgs,
+) -> Result<Loaded, Fatal> {
+    let threshold = Threshold {
+        level: args.threshold,
+        invert: args.invert,
+    };
+    let ia = images::read(a, threshold)?;
+    let ib = images::read(b, threshold)?;
+    let supported = engine::sizes();
+    let size = match args.size {
+        Some(s) => s,
+        None if args.fit == Fit::None => {
+            if ia.width == ia.height && supported.contains(&ia.width) {
+                ia.width
+            } else {
+                return Err(Fatal::io(format!(
+                    "{}: image is {}×{}; supported grids are square, side {:?}: use --fit centre \
+                     to pad/crop, or resize the image",
+                    a.display(),
+                    ia.width,
+                    ia.height,
+                    supported
+                )));
+            }
+        }
+        None => {
+            let need = ia.width.max(ia.height).max(ib.width).max(ib.height);
+            supported
+                .iter()
+                .copied()
+                .find(|&s| s >= need)
+                .unwrap_or(*supported.last().unwrap_or(&256))
+        }
+    };
+    let mut engine = estimator.engine(size)?;
+    let pa = images::place(&ia, &a.display().to_string(), size, args.fit)?;
+    let pb = images::place(&ib, &b.display().to_string(), size, args.fit)?;
+    for (name, p) in [(a, &pa), (b, &pb)] {
+        if p.cropped > 0 {
+            eprintln!(
+                "hough-heading: {}: {} occupied pixel(s) outside the {size}×{size} grid were cropped",
+                name.display(),
+                p.cropped
+            );
+        }
+    }
+    engine.load(View::First, &pa.image);
+    engine.load(View::Second, &pb.image);
+    Ok((engine, [pa.offset, pb.offset]))
+}
+
+/// Estimates on two loaded images; the translation is mapped back to the
+/// images' own centred coordinates.
+pub fn images_result(
+    engine: &mut dyn Engine,
+    mode: Mode,
+    offsets: [(f64, f64); 2],
+) -> ImagesResult {
+    let e = engine.estimate(mode);
+    let alpha = f64::from(e.alpha.to_degrees());
+    let t = e.translation.map(|t| {
+        images::unplace_translation(
+            (t.x.to_num::<f64>(), t.y.to_num::<f64>()),
+            alpha.to_radians(),
+            offsets[0],
+            offsets[1],
+        )
+    });
+    ImagesResult {
+        alpha_deg: scans::round(alpha, 4),
+        status: scans::status_name(e.status),
+        confidence: scans::round(e.confidence.to_num::<f64>(), 4),
+        candidates: e
+            .candidates
+            .iter()
+            .map(|c| CandidateJson {
+                alpha_deg: scans::round(f64::from(c.alpha.to_degrees()), 4),
+                score: scans::round(c.score.to_num::<f64>(), 4),
+            })
+            .collect(),
+        tx_px: t.map(|t| scans::round(t.0, 3)),
+        ty_px: t.map(|t| scans::round(t.1, 3)),
+        size: engine.size(),
+        n_theta: engine.n_theta(),
+    }
+}
+
+fn images_command(args: &ImagesArgs) -> Result<(), Fatal> {
+    let (mut engine, offsets) = load_images(&args.a, &args.b, &args.image, &args.estimator)?;
+    let r = images_result(engine.as_mut(), args.estimator.mode.into(), offsets);
+    let text = if args.json {
+        serde_json::to_string(&r).map_err(|e| Fatal::io(format!("JSON output: {e}")))?
+    } else {
+        describe_images(&r, args.estimator.mode)
+    };
+    println!("{text}");
+    Ok(())
+}
+
+/// The human-readable report of an `images` result.
+pub fn describe_images(r: &ImagesResult, mode: ModeArg) -> String {
+    let candidates: Vec<String> = r
+        .candidates
+        .iter()
+        .map(|c| format!("{:+.2}° ({:.2})", c.alpha_deg, c.score))
+        .collect();
+    let translation = match (r.tx_px, r.ty_px) {
+        (Some(x), Some(y)) => format!("tx = {x:+.2} px, ty = {y:+.2} px (x right, y up)"),
+        _ => "not estimated (paper mode, or the rotation is not resolved)".into(),
+    };
+    let mode = match mode {
+        ModeArg::Improved => "improved",
+        ModeArg::Paper => "paper",
+    };
+    format!(
+        "rotation of B relative to A: {:+.2}° (counter-clockwise)\n\
+         status:      {} (confidence {:.2})\n\
+         candidates:  {}\n\
+         translation: {translation}\n\
+         grid:        {size}×{size}, N_θ = {}, {mode} mode",
+        r.alpha_deg,
+        r.status,
+        r.confidence,
+        candidates.join(", "),
+        r.n_theta,
+        size = r.size,
+    )
+}
+
+/// Reads a whole input file (`-` = stdin), naming it on failure.
+pub fn read_input(path: &Path) -> Result<Vec<u8>, Fatal> {
+    if path == Path::new("-") {
+        let mut bytes = Vec::new();
+        io::Read::read_to_end(&mut io::stdin(), &mut bytes)
+            .map_err(|e| Fatal::io(format!("stdin: {e}")))?;
+        return Ok(bytes);
+    }
+    std::fs::read(path).map_err(|e| Fatal::io(format!("{}: cannot read: {e}", path.display())))
+}
+
+/// The lines of a pair file: split on `\n`, `\r` stripped, without the empty
+/// piece after a final newline.
+pub fn lines(bytes: &[u8]) -> Vec<&[u8]> {
+    let mut lines: Vec<&[u8]> = bytes
+        .split(|&b| b == b'\n')
+        .map(|l| l.strip_suffix(b"\r").unwrap_or(l))
+        .collect();
+    if lines.last().is_some_and(|l| l.is_empty()) {
+        lines.pop();
+    }
+    lines
+}
+
+/// A progress bar on stderr (drawn only on a terminal).
+pub fn progress(len: usize, quiet: bool) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(len as u64);
+    if let Ok(style) =
+        ProgressStyle::with_template("{bar:40} {pos}/{len} pairs {per_sec} eta {eta}")
+    {
+        bar.set_style(style);
+    }
+    bar
+}
+
+fn scans_command(args: &ScansArgs) -> Result<usize, Fatal> {
+    let options = args.grid.options()?;
+    let mut engine = args.estimator.engine(args.grid.size)?;
+    let bytes = read_input(&args.pairs)?;
+    let mut lines = lines(&bytes);
+    if let Some(limit) = args.limit {
+        lines.truncate(limit);
+    }
+    let primary: Mode = args.estimator.mode.into();
+    let modes: Vec<Mode> = if args.compare {
+        let other = match primary {
+            Mode::Improved => Mode::Paper,
+            Mode::Paper => Mode::Improved,
+        };
+        vec![primary, other]
+    } else {
+        vec![primary]
+    };
+    let bar = progress(lines.len(), args.quiet);
+    let stdout = io::stdout();
+    let mut out = BufWriter::new(stdout.lock());
+    let mut summary = Summary::default();
+    let mut failed = 0;
+    let start = Instant::now();
+    for (index, line) in lines.iter().enumerate() {
+        bar.inc(1);
+        let result = serde_json::from_slice::<PairRecord>(line)
+            .map_err(|e| format!("line {}: malformed pair: {e}", index + 1))
+            .and_then(|pair| {
+                scans::estimate(engine.as_mut(), &pair, &options, &modes)
+                    .map_err(|e| format!("line {}: {e}", index + 1))
+            });
+        let output = match &result {
+            Ok(estimates) => OutputLine::of(index, &estimates[0]),
+            Err(message) => {
+                failed += 1;
+                bar.suspend(|| eprintln!("hough-heading: {message}"));
+                OutputLine::error(index, message.clone())
+            }
+        };
+        let text =
+            serde_json::to_string(&output).map_err(|e| Fatal::io(format!("JSON output: {e}")))?;
+        if writeln!(out, "{text}").is_err() {
+            // stdout closed (e.g. piped into `head`): stop quietly.
+            return Ok(failed);
+        }
+        if args.summary {
+            match (&result, serde_json::from_slice::<Truth>(line)) {
+                (Ok(estimates), Ok(truth)) => {
+                    let with_methods: Vec<(Method, &scans::PairEstimate)> = modes
+                        .iter()
+                        .zip(estimates)
+                        .map(|(m, e)| {
+                            let method = match m {
+                                Mode::Improved => Method::Improved,
+                                Mode::Paper => Method::Paper,
+                            };
+                            (method, e)
+                        })
+                        .collect();
+                    summary.add(&truth, &with_methods);
+                }
+                (Ok(_), Err(e)) => {
+                    bar.suspend(|| {
+                        eprintln!(
+                            "hough-heading: line {}: no ground truth ({e}); not in the summary",
+                            index + 1
+                        )
+                    });
+                    summary.add_error();
+                }
+                (Err(_), _) => summary.add_error(),
+            }
+        }
+    }
+    let _ = out.flush();
+    bar.finish_and_clear();
+    let elapsed = start.elapsed().as_secs_f64();
+    if !args.quiet {
+        eprintln!(
+            "hough-heading: {} pairs ({failed} failed) in {elapsed:.2} s: {:.0} pairs/s, {} mode(s), \
+             one thread",
+            lines.len(),
+            lines.len() as f64 / elapsed.max(1e-9),
+            modes.len()
+        );
+    }
+    if args.summary {
+        let window = match args.grid.cell {
+            Some(c) => format!("cell {c} m"),
+            None => "window R = p90 of valid ranges, 2–40 m".into(),
+        };
+        eprintln!(
+            "\n{}: {}², N_θ = {}, {window}{}{}\n\n{}",
+            args.pairs.display(),
+            args.grid.size,
+            args.estimator.n_theta,
+            if args.grid.connect.is_some() {
+                ", segments"
+            } else {
+                ""
+            },
+            if args.grid.disc { ", disc" } else { "" },
+            summary.table()
+        );
+    }
+    Ok(failed)
+}

@@ -1,0 +1,282 @@
+//! Scan-pair files (`../shared/data/*.jsonl`, one pair per line): reading,
+//! estimating, and the per-line JSON output.
+//!
+//! Estimation reads only `scan1` and `scan2`; the ground truth (`dx`, `dy`,
+//! `dtheta`, `check.overlap_gt`) is read separately, and only for the
+//! summary.
+
+use hough_heading::{Estimate, HalfTurn, Mode, Raster, Scan, ScanStats, SensorOffset, Status};
+use serde::{Deserialize, Serialize};
+
+use super::engine::{Engine, View};
+
+/// One scan as stored in a pair file.
+#[derive(Clone, Debug, Deserialize)]
+pub struct ScanRecord {
+    /// Ranges in metres; `null` reads as NaN (dropped).
+    pub ranges: Vec<Option<f32>>,
+    /// Direction of beam 0, radians.
+    pub angle_min: f32,
+    /// Angle between beams, radians.
+    pub angle_increment: f32,
+    /// "No return" at or beyond this, metres.
+    pub max_range: f32,
+    /// Laser pose `[x, y, θ]` in the robot frame (default: at the origin).
+    #[serde(default)]
+    pub laser_offset: [f32; 3],
+}
+
+impl ScanRecord {
+    /// The ranges with `null` as NaN.
+    pub fn ranges(&self) -> Vec<f32> {
+        self.ranges.iter().map(|r| r.unwrap_or(f32::NAN)).collect()
+    }
+
+    /// The library's view of this scan over `ranges` (from [`Self::ranges`]).
+    pub fn scan<'a>(&self, ranges: &'a [f32]) -> Scan<'a> {
+        Scan {
+            ranges,
+            angle_min: self.angle_min,
+            angle_increment: self.angle_increment,
+            max_range: self.max_range,
+            offset: SensorOffset {
+                x: self.laser_offset[0],
+                y: self.laser_offset[1],
+                theta: self.laser_offset[2],
+            },
+        }
+    }
+}
+
+/// The part of a line the estimator reads.
+#[derive(Clone, Debug, Deserialize)]
+pub struct PairRecord {
+    /// The reference scan.
+    pub scan1: ScanRecord,
+    /// The new scan.
+    pub scan2: ScanRecord,
+}
+
+/// The ground truth of a line (summary only).
+#[derive(Clone, Copy, Debug, Deserialize)]
+pub struct Truth {
+    /// Robot x at scan 2 in the robot frame at scan 1, metres.
+    pub dx: f64,
+    /// Robot y, metres.
+    pub dy: f64,
+    /// Heading change, radians (positive = left turn).
+    pub dtheta: f64,
+    /// Quality checks.
+    #[serde(default)]
+    pub check: Check,
+}
+
+/// The `check` object of a line.
+#[derive(Clone, Copy, Debug, Default, Deserialize)]
+pub struct Check {
+    /// Fraction of scan-2 points within 0.1 m of a scan-1 point under the
+    /// ground truth.
+    pub overlap_gt: Option<f64>,
+}
+
+/// How scans become grids.
+#[derive(Clone, Copy, Debug)]
+pub struct RasterOptions {
+    /// Fixed metres per cell; `None`: [`Raster::auto`] per pair.
+    pub cell: Option<f32>,
+    /// Draw segments between neighbouring beams closer than this (metres).
+    pub connect: Option<f32>,
+    /// Keep only the disc inscribed in the grid.
+    pub disc: bool,
+}
+
+impl RasterOptions {
+    /// The raster for one pair on a grid `size` cells wide.
+    pub fn raster(&self, scans: &[Scan<'_>], size: usize) -> Option<Raster> {
+        let raster = match self.cell {
+            Some(cell) => Raster::with_cell(cell),
+            None => Raster::auto(scans, size),
+        }?
+        .clip_to_disc(self.disc);
+        Some(match self.connect {
+            Some(gap) => raster.connect(gap),
+            None => raster,
+        })
+    }
+}
+
+/// The result of one pair in one mode, in the file's convention.
+#[derive(Clone, Debug)]
+pub struct PairEstimate {
+    /// The estimate on the two grids.
+    pub estimate: Estimate,
+    /// Metres per cell used.
+    pub cell: f32,
+    /// Heading change dθ = −α, degrees in (−180, 180].
+    pub dtheta_deg: f64,
+    /// `(dx, dy)` metres, when the translation was found.
+    pub translation: Option<(f64, f64)>,
+    /// Rasterization counts of both scans.
+    pub stats: [ScanStats; 2],
+}
+
+/// Rasterizes both scans of `pair` into `engine` and estimates in each of
+/// `modes` (the grids are drawn once).
+///
+/// # Errors
+/// A message when a scan has no beam, or the cell size is unusable.
+pub fn estimate(
+    engine: &mut dyn Engine,
+    pair: &PairRecord,
+    options: &RasterOptions,
+    modes: &[Mode],
+) -> Result<Vec<PairEstimate>, String> {
+    let (r1, r2) = (pair.scan1.ranges(), pair.scan2.ranges());
+    if r1.is_empty() || r2.is_empty() {
+        return Err("a scan has no beams".into());
+    }
+    let (s1, s2) = (pair.scan1.scan(&r1), pair.scan2.scan(&r2));
+    let raster = options
+        .raster(&[s1, s2], engine.size())
+        .ok_or("the cell size must be finite and positive")?;
+    let stats = [
+        engine.rasterize(View::First, &s1, &raster),
+        engine.rasterize(View::Second, &s2, &raster),
+    ];
+    Ok(modes
+        .iter()
+        .map(|&mode| {
+            let estimate = engine.estimate(mode);
+            let motion = raster.motion(estimate.alpha, estimate.translation.as_ref());
+            PairEstimate {
+                cell: raster.cell(),
+                dtheta_deg: f64::from(motion.dtheta).to_degrees(),
+                translation: motion
+                    .translation
+                    .map(|(x, y)| (f64::from(x), f64::from(y))),
+                stats,
+                estimate,
+            }
+        })
+        .collect())
+}
+
+/// The status as a lower-case word.
+pub fn status_name(status: Status) -> &'static str {
+    match status {
+        Status::Confident => "confident",
+        Status::AmbiguousDirection => "ambiguous_direction",
+        Status::AmbiguousAxis => "ambiguous_axis",
+        Status::NoStructure => "no_structure",
+    }
+}
+
+/// Which half-turn the direction test chose.
+pub fn half_turn_name(h: HalfTurn) -> &'static str {
+    match h {
+        HalfTurn::Direct => "direct",
+        HalfTurn::Flipped => "flipped",
+    }
+}
+
+/// One output line.
+#[derive(Clone, Debug, Serialize)]
+pub struct OutputLine {
+    /// 0-based index of the input line.
+    pub index: usize,
+    /// Estimated heading change dθ, degrees in (−180, 180] (null on error).
+    pub dtheta_deg: Option<f64>,
+    /// `confident`, `ambiguous_direction`, `ambiguous_axis`, `no_structure`
+    /// or `error`.
+    pub status: &'static str,
+    /// In [0, 1] (null on error).
+    pub confidence: Option<f64>,
+    /// Candidate heading changes, strongest first, degrees.
+    pub candidates_deg: Vec<f64>,
+    /// Robot displacement x, metres, frame of scan 1 (null when unknown).
+    pub dx_m: Option<f64>,
+    /// Robot displacement y, metres.
+    pub dy_m: Option<f64>,
+    /// Pearson correlation of the signatures at the winning shift.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub correlation: Option<f64>,
+    /// Correlation of the rival peak (at least 5° away).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rival: Option<f64>,
+    /// Metres per cell used for this pair.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cell_m: Option<f64>,
+    /// Unit vector (frame of scan 1) along which the translation is not
+    /// observable (a corridor), when so.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub unobservable: Option<[f64; 2]>,
+    /// Why the line failed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+}
+
+impl OutputLine {
+    /// The line for a successful estimate.
+    pub fn of(index: usize, p: &PairEstimate) -> Self {
+        let e = &p.estimate;
+        let dtheta = -f64::from(e.alpha.to_degrees());
+        let unobservable = e.translation.and_then(|t| t.unobservable).map(|(ux, uy)| {
+            // The direction lives in image 2; frame 1 is R(dθ) of it.
+            let (ux, uy) = (ux.to_num::<f64>(), uy.to_num::<f64>());
+            let (s, c) = dtheta.to_radians().sin_cos();
+            [round(c * ux - s * uy, 4), round(s * ux + c * uy, 4)]
+        });
+        Self {
+            index,
+            dtheta_deg: Some(round(p.dtheta_deg, 4)),
+            status: status_name(e.status),
+            confidence: Some(round(e.confidence.to_num::<f64>(), 4)),
+            candidates_deg: e
+                .candidates
+                .iter()
+                .map(|c| round(wrap_deg(-f64::from(c.alpha.to_degrees())), 4))
+                .collect(),
+            dx_m: p.translation.map(|t| round(t.0, 4)),
+            dy_m: p.translation.map(|t| round(t.1, 4)),
+            correlation: Some(round(e.correlation.to_num::<f64>(), 4)),
+            rival: Some(round(e.rival.to_num::<f64>(), 4)),
+            cell_m: Some(round(f64::from(p.cell), 6)),
+            unobservable,
+            error: None,
+        }
+    }
+
+    /// The line for a failed input line.
+    pub fn error(index: usize, message: String) -> Self {
+        Self {
+            index,
+            dtheta_deg: None,
+            status: "error",
+            confidence: None,
+            candidates_deg: Vec::new(),
+            dx_m: None,
+            dy_m: None,
+            correlation: None,
+            rival: None,
+            cell_m: None,
+            unobservable: None,
+            error: Some(message),
+        }
+    }
+}
+
+/// Rounds to `digits` decimals (keeps the output short and stable).
+pub fn round(v: f64, digits: i32) -> f64 {
+    let f = 10f64.powi(digits);
+    (v * f).round() / f
+}
+
+/// Wraps degrees to (−180, 180].
+pub fn wrap_deg(d: f64) -> f64 {
+    let r = d.rem_euclid(360.0);
+    if r > 180.0 {
+        r - 360.0
+    } else {
+        r
+    }
+}

@@ -1,0 +1,246 @@
+//! The real-data summary: errors against the scan-pair files' ground truth.
+//!
+//! Definitions (all angles over the full circle, degrees):
+//!
+//! - *error*: `|wrap(dθ_est − dθ_gt)|` ∈ [0, 180].
+//! - *≤ 2°*: share of pairs with error ≤ 2°.
+//! - *flips*: share with error ≥ 175° (right axis, wrong half-turn).
+//! - *flagged*: share with status ≠ `confident`.
+//! - *fail unflagged*: among the unflagged pairs, the share with error > 5°
+//!   (with the counts).
+//! - *t median / p90*: `|d_est − d_gt|` in metres over the pairs whose
+//!   rotation is within 2° and whose translation is observable; for the zero
+//!   estimate, `|d_gt|` over all pairs.
+//! - *t unobs.*: among the pairs whose rotation is within 2°, the share whose
+//!   translation is unobservable along one direction (corridors: the estimate
+//!   has no component along it, so its error there is the motion along the
+//!   corridor).
+//!
+//! Subsets: all pairs; `check.overlap_gt ≥ 0.5`; `|dθ_gt| > 90°`.
+
+use std::fmt::Write as _;
+
+use super::scans::{wrap_deg, PairEstimate, Truth};
+
+/// A method compared in the summary.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// The improved pipeline.
+    Improved,
+    /// The paper as written.
+    Paper,
+    /// The trivial estimate dθ = 0, d = 0.
+    Zero,
+}
+
+impl Method {
+    fn name(self) -> &'static str {
+        match self {
+            Method::Improved => "improved",
+            Method::Paper => "paper",
+            Method::Zero => "zero",
+        }
+    }
+}
+
+/// One pair's outcome under one method.
+#[derive(Clone, Copy, Debug)]
+struct Outcome {
+    error_deg: f64,
+    flagged: bool,
+    translation_error: Option<f64>,
+    unobservable: bool,
+}
+
+/// One pair's truth and outcomes.
+#[derive(Clone, Debug)]
+struct Row {
+    overlap: Option<f64>,
+    dtheta_deg: f64,
+    outcomes: Vec<(Method, Outcome)>,
+}
+
+/// Accumulates pairs, then prints the table.
+#[derive(Clone, Debug, Default)]
+pub struct Summary {
+    rows: Vec<Row>,
+    errors: usize,
+}
+
+impl Summary {
+    /// Adds one pair: `estimates` pairs each method with its estimate.
+    pub fn add(&mut self, truth: &Truth, estimates: &[(Method, &PairEstimate)]) {
+        let dtheta_deg = wrap_deg(truth.dtheta.to_degrees());
+        let mut outcomes: Vec<(Method, Outcome)> = estimates
+            .iter()
+            .map(|(m, p)| {
+                let error_deg = wrap_deg(p.dtheta_deg - dtheta_deg).abs();
+                let unobservable = error_deg <= 2.0
+                    && p.estimate
+                        .translation
+                        .is_some_and(|t| t.unobservable.is_some());
+                let translation_error = p
+                    .translation
+                    .filter(|_| error_deg <= 2.0 && !unobservable)
+                    .map(|(x, y)| (x - truth.dx).hypot(y - truth.dy));
+                let flagged = p.estimate.status != hough_heading::Status::Confident;
+                (
+                    *m,
+                    Outcome {
+                        error_deg,
+                        flagged,
+                        translation_error,
+                        unobservable,
+                    },
+                )
+            })
+            .collect();
+        outcomes.push((
+            Method::Zero,
+            Outcome {
+                error_deg: dtheta_deg.abs(),
+                flagged: false,
+                translation_error: Some(truth.dx.hypot(truth.dy)),
+                unobservable: false,
+            },
+        ));
+        self.rows.push(Row {
+            overlap: truth.check.overlap_gt,
+            dtheta_deg,
+            outcomes,
+        });
+    }
+
+    /// Counts a line that failed.
+    pub fn add_error(&mut self) {
+        self.errors += 1;
+    }
+
+    /// Number of pairs added.
+    pub fn len(&self) -> usize {
+        self.rows.len()
+    }
+
+    /// Whether no pair was added.
+    pub fn is_empty(&self) -> bool {
+        self.rows.is_empty()
+    }
+
+    /// The table (Markdown), one row per subset × method.
+    pub fn table(&self) -> String {
+        let mut out = String::new();
+        out.push_str(
+            "| subset | method | pairs | median ° | p90 ° | ≤ 2° | flips | flagged | fail unflagged (> 5°) | t median m | t p90 m | t unobs. |\n\
+             |---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        );
+        type Filter = fn(&Row) -> bool;
+        let subsets: [(&str, Filter); 3] = [
+            ("all", |_| true),
+            ("overlap ≥ 0.5", |r| r.overlap.is_some_and(|o| o >= 0.5)),
+            ("\\|dθ\\| > 90°", |r| r.dtheta_deg.abs() > 90.0),
+        ];
+        let methods: Vec<Method> = self
+            .rows
+            .first()
+            .map(|r| r.outcomes.iter().map(|(m, _)| *m).collect())
+            .unwrap_or_default();
+        for (name, keep) in subsets {
+            let rows: Vec<&Row> = self.rows.iter().filter(|r| keep(r)).collect();
+            for &method in &methods {
+                let outcomes: Vec<Outcome> = rows
+                    .iter()
+                    .filter_map(|r| r.outcomes.iter().find(|(m, _)| *m == method))
+                    .map(|(_, o)| *o)
+                    .collect();
+                out.push_str(&line(name, method, &outcomes));
+            }
+        }
+        if self.errors > 0 {
+            let _ = writeln!(out, "\n{} line(s) failed and are not counted.", self.errors);
+        }
+        out
+    }
+}
+
+fn line(subset: &str, method: Method, outcomes: &[Outcome]) -> String {
+    let n = outcomes.len();
+    if n == 0 {
+        return format!(
+            "| {subset} | {} | 0 | – | – | – | – | – | – | – | – |\n",
+            method.name()
+        );
+    }
+    let mut errors: Vec<f64> = outcomes.iter().map(|o| o.error_deg).collect();
+    let share = |count: usize| format!("{:.1} %", 100.0 * count as f64 / n as f64);
+    let within = outcomes.iter().filter(|o| o.error_deg <= 2.0).count();
+    let flips = outcomes.iter().filter(|o| o.error_deg >= 175.0).count();
+    let (flagged, unflagged_fail) = if method == Method::Zero {
+        ("–".to_string(), "–".to_string())
+    } else {
+        let flagged = outcomes.iter().filter(|o| o.flagged).count();
+        let unflagged = n - flagged;
+        let fails = outcomes
+            .iter()
+            .filter(|o| !o.flagged && o.error_deg > 5.0)
+            .count();
+        let fail = if unflagged == 0 {
+            "–".to_string()
+        } else {
+            format!(
+                "{:.1} % ({fails}/{unflagged})",
+                100.0 * fails as f64 / unflagged as f64
+            )
+        };
+        (share(flagged), fail)
+    };
+    let mut t: Vec<f64> = outcomes
+        .iter()
+        .filter_map(|o| o.translation_error)
+        .collect();
+    let unobservable_count = outcomes.iter().filter(|o| o.unobservable).count();
+    let has_translation = !t.is_empty() || unobservable_count > 0;
+    let unobservable = if method == Method::Zero || within == 0 || !has_translation {
+        "–".to_string()
+    } else {
+        format!("{:.1} %", 100.0 * unobservable_count as f64 / within as f64)
+    };
+    let (t_median, t_p90) = if t.is_empty() {
+        ("–".to_string(), "–".to_string())
+    } else {
+        (
+            format!("{:.3}", quantile(&mut t, 0.5)),
+            format!("{:.3}", quantile(&mut t, 0.9)),
+        )
+    };
+    format!(
+        "| {subset} | {} | {n} | {:.2} | {:.2} | {} | {} | {flagged} | {unflagged_fail} | {t_median} | {t_p90} | {unobservable} |\n",
+        method.name(),
+        quantile(&mut errors, 0.5),
+        quantile(&mut errors, 0.9),
+        share(within),
+        share(flips),
+    )
+}
+
+/// The `q`-quantile (nearest rank) of `values` (sorted in place).
+pub fn quantile(values: &mut [f64], q: f64) -> f64 {
+    if values.is_empty() {
+        return f64::NAN;
+    }
+    values.sort_by(|a, b| a.total_cmp(b));
+    let rank = ((q * values.len() as f64).ceil() as usize).clamp(1, values.len());
+    values[rank - 1]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantile_is_nearest_rank() {
+        let mut v = vec![5.0, 1.0, 4.0, 2.0, 3.0];
+        assert_eq!(quantile(&mut v, 0.5), 3.0);
+        assert_eq!(quantile(&mut v, 0.9), 5.0);
+        assert!(quantile(&mut [], 0.5).is_nan());
+    }
+}

@@ -1,0 +1,529 @@
+//! The scan rasterizer's conventions, the `hough-heading` tool on the bundled
+//! data and on bad input, and a check on the real scan pairs (skipped when
+//! `../shared/data` is absent).
+
+use std::f64::consts::PI;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use hough_heading::{estimator, grid, Mode, Raster, Scan, SensorOffset, Status};
+
+type G = grid!(256, 256);
+type E = estimator!(256, 256, 360);
+
+/// A wall from one point to another, metres.
+type Wall = ((f64, f64), (f64, f64));
+
+/// A room that is not symmetric under any rotation: an L-shaped outline
+/// (metres) with a chamfered corner (so no 90° ambiguity) and two pillars.
+fn room() -> Vec<Wall> {
+    let outline = [
+        (-4.0, -3.0),
+        (5.0, -3.0),
+        (5.0, 1.0),
+        (2.0, 1.0),
+        (2.0, 4.0),
+        (-2.5, 4.0),
+        (-4.0, 2.0),
+    ];
+    let mut walls: Vec<_> = (0..outline.len())
+        .map(|i| (outline[i], outline[(i + 1) % outline.len()]))
+        .collect();
+    for (cx, cy, h) in [(-2.0, 2.0, 0.3), (3.0, -1.5, 0.4)] {
+        let corners = [
+            (cx - h, cy - h),
+            (cx + h, cy - h),
+            (cx + h, cy + h),
+            (cx - h, cy + h),
+        ];
+        walls.extend((0..4).map(|i| (corners[i], corners[(i + 1) % 4])));
+    }
+    walls
+}
+
+/// Ray-casts `walls` from the sensor at world pose `(x, y, θ)`: `n` beams
+/// from `angle_min` (sensor frame), spacing `step`; no return → `max_range`.
+fn cast(
+    walls: &[Wall],
+    pose: (f64, f64, f64),
+    n: usize,
+    angle_min: f64,
+    step: f64,
+    max_range: f64,
+) -> Vec<f32> {
+    (0..n)
+        .map(|i| {
+            let phi = pose.2 + angle_min + i as f64 * step;
+            let (dx, dy) = (phi.cos(), phi.sin());
+            let mut best = max_range;
+            for &((ax, ay), (bx, by)) in walls {
+                // Solve pose + r·d = a + s·(b − a).
+                let (ex, ey) = (bx - ax, by - ay);
+                let den = dx * ey - dy * ex;
+                if den.abs() < 1e-12 {
+                    continue;
+                }
+                let (wx, wy) = (ax - pose.0, ay - pose.1);
+                let r = (wx * ey - wy * ex) / den;
+                let s = (wx * dy - wy * dx) / den;
+                if r > 0.0 && (0.0..=1.0).contains(&s) {
+                    best = best.min(r);
+                }
+            }
+            best as f32
+        })
+        .collect()
+}
+
+/// The robot pose 2 in the robot frame 1: `(dx, dy, dθ)`.
+fn relative(p1: (f64, f64, f64), p2: (f64, f64, f64)) -> (f64, f64, f64) {
+    let (s, c) = p1.2.sin_cos();
+    let (wx, wy) = (p2.0 - p1.0, p2.1 - p1.1);
+    let dtheta = (p2.2 - p1.2 + PI).rem_euclid(2.0 * PI) - PI;
+    (c * wx + s * wy, -s * wx + c * wy, dtheta)
+}
+
+fn wrap_deg(d: f64) -> f64 {
+    (d + 180.0).rem_euclid(360.0) - 180.0
+}
+
+#[test]
+fn synthetic_room_gives_alpha_minus_dtheta_and_the_motion() {
+    let walls = room();
+    // A 360° scanner, 720 beams, mounted 0.2 m ahead of the robot origin.
+    let offset = (0.2, 0.0, 0.0);
+    let (n, angle_min, step, max_range) = (720, -PI, 2.0 * PI / 720.0, 30.0);
+    let cases = [
+        ((0.0, 0.0, 0.0), (0.5, 0.3, 0.0)),
+        ((0.0, 0.0, 0.3), (0.4, -0.2, 1.2)),
+        ((-1.0, 0.5, -0.4), (0.0, 0.0, 2.6)),
+        ((0.5, -0.5, 1.0), (-0.3, 0.4, -2.2)),
+    ];
+    for (robot1, robot2) in cases {
+        // The sensor's world pose from the robot's.
+        let sensor = |p: (f64, f64, f64)| {
+            let (s, c) = p.2.sin_cos();
+            (
+                p.0 + c * offset.0 - s * offset.1,
+                p.1 + s * offset.0 + c * offset.1,
+                p.2 + offset.2,
+            )
+        };
+        let r1 = cast(&walls, sensor(robot1), n, angle_min, step, max_range);
+        let r2 = cast(&walls, sensor(robot2), n, angle_min, step, max_range);
+        let scan = |ranges| Scan {
+            ranges,
+            angle_min: angle_min as f32,
+            angle_increment: step as f32,
+            max_range: max_range as f32,
+            offset: SensorOffset {
+                x: offset.0 as f32,
+                y: offset.1 as f32,
+                theta: offset.2 as f32,
+            },
+        };
+        let (s1, s2) = (scan(&r1), scan(&r2));
+        let raster = Raster::with_radius(7.0, 256).unwrap();
+        let (mut g1, mut g2) = (G::new(), G::new());
+        assert_eq!(raster.rasterize(&s1, &mut g1).kept, n as u32);
+        assert_eq!(raster.rasterize(&s2, &mut g2).kept, n as u32);
+        let estimate = E::new(Mode::Improved).estimate_pair(&g1, &g2);
+        let (dx, dy, dtheta) = relative(robot1, robot2);
+        // α = −dθ.
+        let alpha = f64::from(estimate.alpha.to_degrees());
+        assert!(
+            wrap_deg(alpha + dtheta.to_degrees()).abs() < 1.0,
+            "α = {alpha}, dθ = {}",
+            dtheta.to_degrees()
+        );
+        // A room of mostly perpendicular walls may be flagged AmbiguousAxis
+        // (its rival peak is at 90°); the best candidate must still be right.
+        assert_ne!(estimate.status, Status::NoStructure);
+        // The motion in the file convention.
+        let motion = raster.motion(estimate.alpha, estimate.translation.as_ref());
+        assert!(wrap_deg(f64::from(motion.dtheta).to_degrees() - dtheta.to_degrees()).abs() < 1.0);
+        let (ex, ey) = motion.translation.expect("translation");
+        let error = (f64::from(ex) - dx).hypot(f64::from(ey) - dy);
+        assert!(
+            error < 2.0 * f64::from(raster.cell()),
+            "d = ({dx:.3}, {dy:.3}), estimated ({ex:.3}, {ey:.3})"
+        );
+    }
+}
+
+// ---------------------------------------------------------------------------
+// The command-line tool.
+
+fn data_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data")
+}
+
+fn tool(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hough-heading"))
+        .args(args)
+        .output()
+        .expect("run hough-heading")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A scratch directory for one test.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("hough-heading-cli-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn image_file(name: &str) -> String {
+    data_dir().join("images").join(name).display().to_string()
+}
+
+#[test]
+fn demo_runs_on_the_bundled_data() {
+    let o = tool(&["demo"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(out.contains("4/4 image pairs"), "{out}");
+    assert!(out.contains("6/7 scan pairs"), "{out}");
+}
+
+#[test]
+fn bundled_images_match_the_generator() {
+    for (spec, a, b) in host_tests::cli::demo::render_image_pairs() {
+        for (file, image) in [(&spec.a, &a), (&spec.b, &b)] {
+            let bundled = std::fs::read(data_dir().join(file)).unwrap();
+            let made = host_tests::cli::demo::encode(image, file).unwrap();
+            assert!(
+                bundled == made,
+                "{file} differs from the generator: run `hough-heading demo --regenerate`"
+            );
+        }
+    }
+}
+
+#[test]
+fn images_prints_the_rotation_as_text_and_json() {
+    let (a, b) = (image_file("polygon-a.pbm"), image_file("polygon-b.pbm"));
+    let o = tool(&["images", &a, &b]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("+37.0"), "{}", stdout(&o));
+    let o = tool(&["images", &a, &b, "--json"]);
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    let alpha = v["alpha_deg"].as_f64().unwrap();
+    assert!((alpha - 37.0).abs() < 1.0, "{v}");
+    assert_eq!(v["status"], "confident");
+    assert!(v["confidence"].as_f64().unwrap() > 0.5);
+    let candidates = v["candidates"].as_array().unwrap();
+    assert!(candidates[0]["alpha_deg"].is_number() && candidates[0]["score"].is_number());
+    assert!((v["tx_px"].as_f64().unwrap() - 4.0).abs() < 1.0, "{v}");
+    assert!((v["ty_px"].as_f64().unwrap() + 3.0).abs() < 1.0, "{v}");
+    // PNG and ASCII PBM.
+    let o = tool(&[
+        "images",
+        &image_file("l-shape-a.png"),
+        &image_file("l-shape-b.png"),
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert!(
+        (v["alpha_deg"].as_f64().unwrap() + 160.0).abs() < 1.0,
+        "{v}"
+    );
+    let o = tool(&[
+        "images",
+        &image_file("room-a.pbm"),
+        &image_file("room-b.pbm"),
+        "--json",
+        "--mode",
+        "paper",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert!(v["tx_px"].is_null(), "paper mode has no translation: {v}");
+}
+
+#[test]
+fn images_fit_centre_pads_and_keeps_the_translation() {
+    // Crop the bundled 128² polygon pair to 100 × 90 (top-left kept) and
+    // estimate on a padded grid: same rotation, translation unchanged.
+    let dir = scratch("fit");
+    let crop = |name: &str| {
+        let img = image::open(image_file(name)).unwrap().to_luma8();
+        let cropped = image::imageops::crop_imm(&img, 14, 19, 100, 90).to_image();
+        let path = dir.join(name.replace(".pbm", ".png"));
+        cropped.save(&path).unwrap();
+        path.display().to_string()
+    };
+    let (a, b) = (crop("polygon-a.pbm"), crop("polygon-b.pbm"));
+    let o = tool(&["images", &a, &b]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("100×90") && stderr(&o).contains("--fit"),
+        "{}",
+        stderr(&o)
+    );
+    let o = tool(&["images", &a, &b, "--fit", "centre", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(v["size"], 128);
+    assert!((v["alpha_deg"].as_f64().unwrap() - 37.0).abs() < 1.0, "{v}");
+    // The crop moves both centres by the same amount: t changes by (I − R)c,
+    // which the tool undoes; allow for pixels lost at the crop border.
+    assert!((v["tx_px"].as_f64().unwrap() - 4.0).abs() < 1.5, "{v}");
+    assert!((v["ty_px"].as_f64().unwrap() + 3.0).abs() < 1.5, "{v}");
+}
+
+#[test]
+fn bad_images_are_clear_errors_with_exit_status_2() {
+    let dir = scratch("bad-images");
+    let good = image_file("polygon-a.pbm");
+    // Truncated P4.
+    let bytes = std::fs::read(&good).unwrap();
+    let truncated = dir.join("truncated.pbm");
+    std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
+    // Truncated P1 header.
+    let header_only = dir.join("header.pbm");
+    std::fs::write(&header_only, b"P1\n128 12").unwrap();
+    // Empty (all white) 128² image.
+    let empty = dir.join("empty.pbm");
+    let mut blank = b"P4\n128 128\n".to_vec();
+    blank.extend(std::iter::repeat_n(0u8, 16 * 128));
+    std::fs::write(&empty, blank).unwrap();
+    // Wrong size: 100 × 100.
+    let small = dir.join("small.pbm");
+    let mut s = b"P4\n100 100\n".to_vec();
+    s.extend(std::iter::repeat_n(0xffu8, 13 * 100));
+    std::fs::write(&small, s).unwrap();
+    let text = dir.join("text.pbm");
+    std::fs::write(&text, b"hello").unwrap();
+    let missing = dir.join("missing.pbm");
+    for (bad, expect) in [
+        (&truncated, "truncated.pbm"),
+        (&header_only, "header.pbm"),
+        (&empty, "no occupied pixel"),
+        (&small, "100×100"),
+        (&text, "text.pbm"),
+        (&missing, "missing.pbm"),
+    ] {
+        let o = tool(&["images", &good, &bad.display().to_string()]);
+        assert_eq!(
+            o.status.code(),
+            Some(2),
+            "{}: {}",
+            bad.display(),
+            stderr(&o)
+        );
+        assert!(
+            stderr(&o).contains(expect),
+            "{}: {}",
+            bad.display(),
+            stderr(&o)
+        );
+        assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+    }
+    // Unknown configuration.
+    let o = tool(&["images", &good, &good, "--n-theta", "100"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("available"), "{}", stderr(&o));
+}
+
+/// A valid pair line from the bundled data, with its scans replaced.
+fn pair_line(edit: impl FnOnce(&mut serde_json::Value)) -> String {
+    let text = std::fs::read_to_string(data_dir().join("scans.jsonl")).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(text.lines().next().unwrap()).unwrap();
+    edit(&mut v);
+    v.to_string()
+}
+
+#[test]
+fn scans_reports_bad_lines_and_goes_on() {
+    let dir = scratch("bad-scans");
+    let good = pair_line(|_| {});
+    let no_beams = pair_line(|v| v["scan2"]["ranges"] = serde_json::json!([]));
+    let junk_ranges = pair_line(|v| {
+        let n = v["scan1"]["ranges"].as_array().unwrap().len();
+        let bad: Vec<serde_json::Value> = (0..n)
+            .map(|i| match i % 4 {
+                0 => serde_json::Value::Null,
+                1 => serde_json::json!(-1.0),
+                2 => serde_json::json!(0.0),
+                _ => serde_json::json!(1e9),
+            })
+            .collect();
+        v["scan1"]["ranges"] = serde_json::Value::Array(bad);
+    });
+    let nan_geometry = pair_line(|v| v["scan2"]["angle_increment"] = serde_json::json!("NaN"));
+    let lines = [
+        good.as_str(),
+        "{\"scan1\": {",
+        no_beams.as_str(),
+        "",
+        junk_ranges.as_str(),
+        nan_geometry.as_str(),
+        good.as_str(),
+    ];
+    let file = dir.join("pairs.jsonl");
+    std::fs::write(&file, lines.join("\n") + "\n").unwrap();
+    let o = tool(&["scans", &file.display().to_string(), "--summary", "-q"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let out: Vec<serde_json::Value> = stdout(&o)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(out.len(), lines.len());
+    let status: Vec<&str> = out.iter().map(|v| v["status"].as_str().unwrap()).collect();
+    assert_eq!(status[0], "confident");
+    assert_eq!(status[1], "error");
+    assert!(
+        out[1]["error"].as_str().unwrap().contains("line 2"),
+        "{}",
+        out[1]
+    );
+    assert_eq!(status[2], "error");
+    assert!(
+        out[2]["error"].as_str().unwrap().contains("no beams"),
+        "{}",
+        out[2]
+    );
+    assert_eq!(status[3], "error");
+    assert!(
+        out[3]["error"].as_str().unwrap().contains("line 4"),
+        "{}",
+        out[3]
+    );
+    // All readings of scan 1 invalid: an answer without structure, not an error.
+    assert_eq!(status[4], "no_structure", "{}", out[4]);
+    assert_eq!(status[5], "error", "{}", out[5]);
+    assert_eq!(status[6], "confident");
+    for (i, v) in out.iter().enumerate() {
+        assert_eq!(v["index"], i);
+    }
+    let keys = [
+        "index",
+        "dtheta_deg",
+        "status",
+        "confidence",
+        "candidates_deg",
+        "dx_m",
+        "dy_m",
+    ];
+    for key in keys {
+        assert!(out[0].get(key).is_some(), "{key} missing: {}", out[0]);
+    }
+    let err = stderr(&o);
+    assert!(err.contains("| overlap ≥ 0.5 | improved |"), "{err}");
+    assert!(err.contains("line(s) failed"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn scans_never_reads_the_ground_truth_to_estimate() {
+    let dir = scratch("no-truth");
+    let good = pair_line(|_| {});
+    let scrubbed = pair_line(|v| {
+        let o = v.as_object_mut().unwrap();
+        for key in ["dx", "dy", "dtheta", "check", "log_delta"] {
+            o.remove(key);
+        }
+    });
+    let file = dir.join("pairs.jsonl");
+    std::fs::write(&file, format!("{good}\n{scrubbed}\n")).unwrap();
+    let o = tool(&["scans", &file.display().to_string(), "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    let out: Vec<&str> = text.lines().collect();
+    assert_eq!(out[0], out[1].replace("\"index\":1", "\"index\":0"));
+}
+
+#[test]
+fn scans_input_errors_exit_with_status_2() {
+    let o = tool(&["scans", "/nonexistent/pairs.jsonl"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("/nonexistent/pairs.jsonl"),
+        "{}",
+        stderr(&o)
+    );
+    let file = data_dir().join("scans.jsonl").display().to_string();
+    let o = tool(&["scans", &file, "--cell", "-1"]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = tool(&["scans", &file, "--size", "100"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("available"), "{}", stderr(&o));
+    let o = tool(&["scans"]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn plot_writes_a_png_sheet() {
+    let dir = scratch("plot");
+    let file = data_dir().join("scans.jsonl").display().to_string();
+    let o = tool(&[
+        "plot",
+        "scans",
+        &file,
+        "--index",
+        "1",
+        "--size",
+        "128",
+        "--out",
+        &dir.display().to_string(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let png = std::fs::read(dir.join("scans-1.png")).unwrap();
+    assert_eq!(&png[..4], b"\x89PNG");
+    let o = tool(&[
+        "plot",
+        "scans",
+        &file,
+        "--index",
+        "99",
+        "--out",
+        &dir.display().to_string(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("index 99"), "{}", stderr(&o));
+}
+
+// ---------------------------------------------------------------------------
+// Real data (skipped when ../shared/data is absent).
+
+#[test]
+fn real_fr079_pairs_with_overlap_are_mostly_within_two_degrees() {
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/fr079-flirt_pairs.jsonl");
+    let Ok(text) = std::fs::read_to_string(&path) else {
+        println!("skipped: {} is absent", path.display());
+        return;
+    };
+    use host_tests::cli::scans::{estimate, PairRecord, RasterOptions, Truth};
+    let mut engine = host_tests::cli::engine::engine(256, 360).unwrap();
+    let options = RasterOptions {
+        cell: None,
+        connect: None,
+        disc: false,
+    };
+    let (mut pairs, mut within) = (0, 0);
+    for line in text.lines() {
+        let truth: Truth = serde_json::from_str(line).unwrap();
+        if truth.check.overlap_gt.is_none_or(|o| o < 0.5) {
+            continue;
+        }
+        let pair: PairRecord = serde_json::from_str(line).unwrap();
+        let p = estimate(engine.as_mut(), &pair, &options, &[Mode::Improved]).unwrap();
+        let error = wrap_deg(p[0].dtheta_deg - truth.dtheta.to_degrees()).abs();
+        pairs += 1;
+        within += usize::from(error <= 2.0);
+        if pairs == 100 {
+            break;
+        }
+    }
+    assert_eq!(pairs, 100);
+    assert!(within >= 80, "{within}/100 within 2°");
+}

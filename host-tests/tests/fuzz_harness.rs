@@ -1,0 +1,755 @@
+//! Fuzz-style harness (issue 7): `proptest` with a fixed seed and a bounded
+//! number of cases, in place of `cargo fuzz` (which needs nightly).
+//!
+//! Targets:
+//!
+//! 1. the estimator on arbitrary bytes read as grid words, at every density
+//!    (each word is the AND of 0–5 random words), with random modes,
+//!    thresholds in their sane range and priors;
+//! 2. `Reference::from_bytes` on arbitrary bytes, and on mutated valid
+//!    references whose checksum is recomputed (so the fields behind the
+//!    checksum are reached), each accepted reference then used to estimate;
+//! 3. the matching functions (`Correlation::of`, `match_profile`,
+//!    `paper_asymmetry`, `ColumnStats::of`, `fit_translation`) and `Angle` on
+//!    arbitrary values;
+//! 4. laser scans with arbitrary ranges (NaN, ±∞, negative, subnormal,
+//!    huge), angles, offsets and cell sizes through `Raster`;
+//! 5. the command-line tool's image decoder (`cli::images::read` + `place`)
+//!    on arbitrary and mutated PBM (`P1`, `P4`) and PNG files;
+//! 6. the tool's scan-pair parser and pipeline (`serde_json` into
+//!    `cli::scans::PairRecord`, then `cli::scans::estimate`) on arbitrary and
+//!    mutated JSON lines.
+//!
+//! Every case must return (no panic, in the test profile's overflow-checked
+//! arithmetic) with a result in its documented range. Case counts are printed
+//! (`--nocapture`); `FUZZ_SCALE` (default 1) multiplies them, e.g.
+//! `FUZZ_SCALE=20 cargo test --release --test fuzz_harness` for a long run.
+//! The whole file takes about a minute in the test profile on 2 cores.
+
+use std::io::Write;
+
+use host_tests::cli;
+use hough_heading::{
+    fit_translation, match_profile, paper_asymmetry, range_percentile, rho_bins, row_words, Angle,
+    ColumnShift, ColumnStats, Correlation, Estimate, Estimator, Grid, Mode, PeakKind, Prior,
+    Raster, Reference, Scan, Score, SensorOffset, Signature, Status, Thresholds,
+};
+use proptest::prelude::*;
+use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+
+/// Number of cases scaled by `FUZZ_SCALE`.
+fn cases(base: u32) -> u32 {
+    let scale: u32 = std::env::var("FUZZ_SCALE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1);
+    base.saturating_mul(scale.max(1))
+}
+
+/// A deterministic runner: the same cases on every run, no persistence file.
+fn runner(base: u32, seed: u8) -> TestRunner {
+    let config = Config {
+        cases: cases(base),
+        failure_persistence: None,
+        max_shrink_iters: 256,
+        ..Config::default()
+    };
+    TestRunner::new_with_rng(
+        config,
+        TestRng::from_seed(RngAlgorithm::ChaCha, &[seed; 32]),
+    )
+}
+
+/// Runs `test` over `strategy`, reports the count, fails on the first
+/// (shrunk) failing case.
+fn fuzz<S: Strategy>(
+    name: &str,
+    base: u32,
+    seed: u8,
+    strategy: S,
+    test: impl Fn(S::Value) -> Result<(), TestCaseError>,
+) where
+    S::Value: std::fmt::Debug,
+{
+    let mut runner = runner(base, seed);
+    let result = runner.run(&strategy, test);
+    println!("fuzz {name}: {} cases", cases(base));
+    if let Err(e) = result {
+        panic!("fuzz {name}: {e}");
+    }
+}
+
+/// The invariants of every [`Estimate`] (as in `adversarial.rs`).
+fn check(e: &Estimate, prior: bool) -> Result<(), TestCaseError> {
+    let unit = Score::ZERO..=Score::ONE;
+    prop_assert!(unit.contains(&e.confidence), "{e:?}");
+    prop_assert!((-Score::ONE..=Score::ONE).contains(&e.correlation), "{e:?}");
+    prop_assert!((-Score::ONE..=Score::ONE).contains(&e.rival), "{e:?}");
+    prop_assert!(
+        e.candidates.iter().all(|c| unit.contains(&c.score)),
+        "{e:?}"
+    );
+    prop_assert!(
+        e.candidates.windows(2).all(|w| w[0].score >= w[1].score),
+        "{e:?}"
+    );
+    if e.status == Status::NoStructure {
+        prop_assert!(e.candidates.is_empty() && e.translation.is_none(), "{e:?}");
+    } else if !prior {
+        prop_assert!(e.candidates.iter().any(|c| c.alpha == e.alpha), "{e:?}");
+    }
+    Ok(())
+}
+
+/// Thresholds anywhere in their sane range (the extremes are finding F7 of
+/// `adversarial.rs`): ratios and margins in [0, 2] with at least 1/1024,
+/// shift fractions in [0, 1].
+fn thresholds() -> impl Strategy<Value = Thresholds> {
+    (0i32..=2 << 16, 64i32..=2 << 16, 0u32..40, 0i32..=1 << 16).prop_map(|(r, d, m, s)| {
+        Thresholds {
+            rival_ratio: Score::from_bits(r),
+            direction_margin: Score::from_bits(d),
+            min_occupied: m,
+            max_shift_fraction: Score::from_bits(s),
+        }
+    })
+}
+
+fn mode() -> impl Strategy<Value = Mode> {
+    prop_oneof![Just(Mode::Paper), Just(Mode::Improved)]
+}
+
+fn prior() -> impl Strategy<Value = Option<Prior>> {
+    proptest::option::of((any::<u32>(), any::<u32>()).prop_map(|(a, s)| Prior {
+        alpha: Angle(a),
+        sigma: Angle(s),
+    }))
+}
+
+/// Grid words at a random density: each word is the AND of `k` ∈ 0..=5
+/// random words (density 2⁻ᵏ), optionally inverted (density 1 − 2⁻ᵏ).
+fn grid_words<const W: usize, const H: usize, const RW: usize>(
+) -> impl Strategy<Value = Grid<W, H, RW>> {
+    (
+        proptest::collection::vec(any::<[u32; 6]>(), RW * H),
+        0usize..=5,
+        any::<bool>(),
+    )
+        .prop_map(|(raw, k, invert)| {
+            let mut rows = [[0u32; RW]; H];
+            for (i, words) in raw.iter().enumerate() {
+                let w = words[..=k.min(5)]
+                    .iter()
+                    .skip(1)
+                    .fold(words[0], |a, &b| a & b);
+                let w = if k == 0 { words[0] } else { w };
+                rows[i / RW][i % RW] = if invert { !w } else { w };
+            }
+            Grid::from_words(rows)
+        })
+}
+
+/// Sparse grids: up to 400 arbitrary (possibly out-of-range) cells.
+fn grid_cells<const W: usize, const H: usize, const RW: usize>(
+) -> impl Strategy<Value = Grid<W, H, RW>> {
+    proptest::collection::vec((0..W + 4, 0..H + 4), 0..400).prop_map(|cells| {
+        let mut g = Grid::new();
+        let outside = cells.iter().filter(|&&(c, r)| c >= W || r >= H).count();
+        let result = g.set_cells(cells);
+        assert_eq!(result.is_err(), outside > 0);
+        g
+    })
+}
+
+/// Target 1 for one configuration.
+fn estimator_on_grids<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+>(
+    dense: u32,
+    sparse: u32,
+    seed: u8,
+) {
+    let run = |pair: (Grid<W, H, RW>, Grid<W, H, RW>), m, t, p: Option<Prior>| {
+        let mut e = Estimator::<W, H, RW, N, HALF, RHO>::new(m).with_thresholds(t);
+        let reference = e.reference(&pair.0);
+        check(&e.estimate(&reference, &pair.1), false)?;
+        check(&e.estimate_with_prior(&reference, &pair.1, p), p.is_some())
+    };
+    let name = format!("estimator {W}x{H}/{N} dense grids");
+    fuzz(
+        &name,
+        dense,
+        seed,
+        (
+            (grid_words::<W, H, RW>(), grid_words::<W, H, RW>()),
+            mode(),
+            thresholds(),
+            prior(),
+        ),
+        |(pair, m, t, p)| run(pair, m, t, p),
+    );
+    let name = format!("estimator {W}x{H}/{N} sparse grids");
+    fuzz(
+        &name,
+        sparse,
+        seed.wrapping_add(1),
+        (
+            (grid_cells::<W, H, RW>(), grid_cells::<W, H, RW>()),
+            mode(),
+            thresholds(),
+            prior(),
+        ),
+        |(pair, m, t, p)| run(pair, m, t, p),
+    );
+}
+
+macro_rules! config {
+    ($w:expr, $h:expr, $n:expr) => {
+        estimator_on_grids::<
+            $w,
+            $h,
+            { row_words($w) },
+            $n,
+            { hough_heading::half_turn_steps($n) },
+            { rho_bins($w, $h) },
+        >
+    };
+}
+
+#[test]
+fn fuzz_estimator_on_arbitrary_grids() {
+    config!(64, 64, 128)(3000, 3000, 1);
+    config!(128, 128, 360)(600, 1600, 2);
+    config!(96, 64, 180)(800, 1200, 3);
+    config!(160, 90, 512)(300, 600, 4);
+    config!(256, 256, 720)(60, 300, 5);
+}
+
+/// FNV-1a, the checksum of the stored reference format.
+fn fnv1a(bytes: &[u8]) -> u32 {
+    bytes.iter().fold(0x811c_9dc5u32, |h, &b| {
+        (h ^ u32::from(b)).wrapping_mul(0x0100_0193)
+    })
+}
+
+#[test]
+fn fuzz_reference_from_bytes() {
+    const HALF: usize = 64;
+    const RHO: usize = rho_bins(64, 64);
+    type R = Reference<64, 64, HALF, RHO>;
+    type E = Estimator<64, 64, 2, 128, HALF, RHO>;
+    // Arbitrary bytes of any length around the format's size.
+    fuzz(
+        "Reference::from_bytes arbitrary",
+        20_000,
+        10,
+        proptest::collection::vec(any::<u8>(), 0..R::BYTES + 64),
+        |bytes| {
+            match R::from_bytes(&bytes) {
+                Ok(_) => prop_assert!(bytes.len() >= R::BYTES),
+                Err(hough_heading::Error::BufferTooSmall { needed }) => {
+                    prop_assert!(bytes.len() < needed && needed == R::BYTES)
+                }
+                Err(_) => {}
+            }
+            Ok(())
+        },
+    );
+    // Valid references, mutated, checksum recomputed: whatever the parser
+    // accepts must be usable by the estimator.
+    let mut e = E::new(Mode::Improved);
+    let mut g = Grid::<64, 64, 2>::new();
+    for i in 0..60 {
+        g.set(i, (i * 7) % 64).unwrap();
+        g.set(5, i).unwrap();
+        g.set(i, 50).unwrap();
+    }
+    let mut valid = vec![0u8; R::BYTES];
+    e.reference(&g).to_bytes(&mut valid).unwrap();
+    let accepted = std::cell::Cell::new(0u32);
+    fuzz(
+        "Reference::from_bytes mutated+checksummed",
+        4000,
+        11,
+        (
+            proptest::collection::vec((0..R::BYTES - 4, any::<u8>()), 1..12),
+            grid_cells::<64, 64, 2>(),
+            mode(),
+        ),
+        |(edits, grid, m)| {
+            let mut bytes = valid.clone();
+            for (at, v) in edits {
+                bytes[at] = v;
+            }
+            let sum = fnv1a(&bytes[..R::BYTES - 4]);
+            bytes[R::BYTES - 4..].copy_from_slice(&sum.to_le_bytes());
+            if let Ok(reference) = R::from_bytes(&bytes) {
+                accepted.set(accepted.get() + 1);
+                prop_assert!(reference.profiles().len() <= hough_heading::PROFILE_COLUMNS);
+                prop_assert!(reference.profiles().iter().all(|p| p.theta < HALF));
+                let mut out = vec![0u8; R::BYTES];
+                prop_assert_eq!(reference.to_bytes(&mut out), Ok(R::BYTES));
+                let mut e = E::new(m);
+                check(&e.estimate(&reference, &grid), false)?;
+            }
+            Ok(())
+        },
+    );
+    println!("  of which accepted and estimated: {}", accepted.get());
+}
+
+#[test]
+fn fuzz_matching_functions() {
+    const HALF: usize = 64;
+    const RHO: usize = 128;
+    fuzz(
+        "Correlation::of",
+        5000,
+        20,
+        (any::<[u16; HALF]>(), any::<[u16; HALF]>(), any::<usize>()),
+        |(d1, d2, sep)| {
+            let c = Correlation::of(&d1, &d2);
+            for p in &c.peaks {
+                prop_assert!((-Score::ONE..=Score::ONE).contains(&c.score(p)));
+                prop_assert!(p.offset_q16().abs() <= 1 << 15 && p.shift < HALF);
+            }
+            let _ = c.rival(sep);
+            Ok(())
+        },
+    );
+    fuzz(
+        "match_profile",
+        5000,
+        21,
+        (
+            any::<[u8; RHO]>(),
+            any::<[u16; RHO]>(),
+            0usize..=isize::MAX as usize,
+            any::<bool>(),
+        ),
+        |(p, q, shift, mirrored)| {
+            let m = match_profile(&p, &q, shift, mirrored);
+            prop_assert!(m.score_q16 <= 1 << 16);
+            Ok(())
+        },
+    );
+    fuzz(
+        "ColumnStats::of",
+        5000,
+        22,
+        (any::<[u16; RHO]>(), any::<bool>()),
+        |(column, two)| {
+            let kind = if two {
+                PeakKind::TwoBin
+            } else {
+                PeakKind::SingleBin
+            };
+            let s = ColumnStats::of(&column, kind);
+            let max = column.iter().copied().max().unwrap_or(0);
+            prop_assert!(s.peak >= max);
+            Ok(())
+        },
+    );
+    fuzz(
+        "paper_asymmetry",
+        3000,
+        23,
+        (
+            proptest::collection::vec((0usize..8, 0usize..HALF), 1..6),
+            0usize..usize::MAX / 2,
+        ),
+        |(cells, k)| {
+            // Signatures of small grids (S is not settable directly).
+            let mut g = Grid::<16, 16, 1>::new();
+            for (c, r) in cells {
+                let _ = g.set(c * 2, r % 16);
+            }
+            const RHO16: usize = rho_bins(16, 16);
+            let mut columns = [[0u16; RHO16]; 2];
+            let s = Signature::<HALF>::stream::<16, 16, 1, 128, RHO16>(
+                &g,
+                PeakKind::SingleBin,
+                &mut columns,
+            );
+            prop_assert!(paper_asymmetry(&s, &s, k).abs() <= 1 << 16);
+            Ok(())
+        },
+    );
+    let shift =
+        (any::<(i32, i32)>(), any::<i32>(), any::<u32>()).prop_map(|(n, s, w)| ColumnShift {
+            normal_q15: n,
+            shift_q16: s,
+            weight_q16: w,
+        });
+    fuzz(
+        "fit_translation",
+        5000,
+        24,
+        proptest::collection::vec(shift, 0..12),
+        |shifts| {
+            if let Some(t) = fit_translation(&shifts) {
+                prop_assert!(t.residual >= 0);
+            }
+            Ok(())
+        },
+    );
+    fuzz(
+        "Angle",
+        20_000,
+        25,
+        (
+            any::<u32>(),
+            any::<u32>(),
+            -(1i64 << 46)..(1i64 << 46),
+            1usize..1 << 31,
+            any::<f32>(),
+        ),
+        |(a, b, steps, n, deg)| {
+            let (a, b) = (Angle(a), Angle(b));
+            prop_assert!(a.nearest_step(n) < n);
+            let _ = Angle::from_steps_q16(steps, n);
+            let d = Angle::from_degrees(deg).to_degrees();
+            prop_assert!(d > -180.0 && d <= 180.0);
+            let r = a.to_radians().to_num::<f64>();
+            prop_assert!(r.abs() <= std::f64::consts::PI + 1e-4);
+            prop_assert!(a.distance(b) <= Angle::HALF_TURN);
+            prop_assert_eq!(a + b - b, a);
+            Ok(())
+        },
+    );
+}
+
+/// Any `f32`, weighted towards the troublesome ones.
+fn wild_f32() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        4 => -50.0f32..50.0,
+        1 => Just(f32::NAN),
+        1 => Just(f32::INFINITY),
+        1 => Just(f32::NEG_INFINITY),
+        1 => Just(0.0f32),
+        1 => Just(-0.0f32),
+        1 => Just(f32::MIN_POSITIVE / 4.0),
+        1 => Just(f32::MAX),
+        1 => Just(f32::MIN),
+        1 => any::<f32>(),
+    ]
+}
+
+#[test]
+fn fuzz_scans() {
+    let scan = || {
+        (
+            proptest::collection::vec(wild_f32(), 0..400),
+            wild_f32(),
+            wild_f32(),
+            wild_f32(),
+            (wild_f32(), wild_f32(), wild_f32()),
+        )
+    };
+    fuzz(
+        "Raster on arbitrary scans",
+        5000,
+        30,
+        (
+            scan(),
+            scan(),
+            prop_oneof![
+                Just(None),
+                (1e-3f32..10.0).prop_map(Some),
+                wild_f32().prop_map(Some)
+            ],
+            proptest::option::of(1e-3f32..5.0),
+            any::<bool>(),
+            0u32..=120,
+        ),
+        |(a, b, cell, gap, disc, percent)| {
+            let make = |s: &(Vec<f32>, f32, f32, f32, (f32, f32, f32))| Scan {
+                ranges: &[],
+                angle_min: s.1,
+                angle_increment: s.2,
+                max_range: s.3,
+                offset: SensorOffset {
+                    x: (s.4).0,
+                    y: (s.4).1,
+                    theta: (s.4).2,
+                },
+            };
+            let sa = Scan {
+                ranges: &a.0,
+                ..make(&a)
+            };
+            let sb = Scan {
+                ranges: &b.0,
+                ..make(&b)
+            };
+            if let Some(r) = range_percentile(&[sa, sb], percent) {
+                prop_assert!(r.is_finite() && r > 0.0);
+            }
+            let raster = match cell {
+                None => Raster::auto(&[sa, sb], 64),
+                Some(c) => Raster::with_cell(c),
+            };
+            let Some(raster) = raster else {
+                return Ok(());
+            };
+            // Connected segments only with a bounded cost (finding F9).
+            let raster = match gap {
+                Some(g) if g / raster.cell() < 1e4 => raster.connect(g),
+                _ => raster,
+            }
+            .clip_to_disc(disc);
+            let mut g1 = Grid::<64, 64, 2>::new();
+            let mut g2 = Grid::<64, 64, 2>::new();
+            for (scan, grid) in [(&sa, &mut g1), (&sb, &mut g2)] {
+                let st = raster.rasterize(scan, grid);
+                prop_assert_eq!(st.beams as usize, scan.ranges.len());
+                prop_assert_eq!(
+                    st.kept + st.no_return + st.not_finite + st.non_positive + st.outside,
+                    st.beams
+                );
+            }
+            let mut e = Estimator::<64, 64, 2, 128, 64, 128>::new(Mode::Improved);
+            let est = e.estimate_pair(&g1, &g2);
+            check(&est, false)?;
+            let motion = raster.motion(est.alpha, est.translation.as_ref());
+            prop_assert!(motion.dtheta.abs() <= std::f32::consts::PI + 1e-4);
+            Ok(())
+        },
+    );
+}
+
+// ---------------------------------------------------------------------------
+// The command-line tool's inputs.
+
+/// A binary image as `P1`, `P4` or PNG bytes.
+fn encode(width: usize, height: usize, cells: &[bool], format: u8) -> Vec<u8> {
+    match format {
+        0 => {
+            let mut s = format!("P1\n# fuzz\n{width} {height}\n");
+            for row in cells.chunks(width) {
+                for &c in row {
+                    s.push(if c { '1' } else { '0' });
+                    s.push(' ');
+                }
+                s.push('\n');
+            }
+            s.into_bytes()
+        }
+        1 => {
+            let mut out = format!("P4\n{width} {height}\n").into_bytes();
+            for row in cells.chunks(width) {
+                for byte in row.chunks(8) {
+                    let mut b = 0u8;
+                    for (i, &c) in byte.iter().enumerate() {
+                        if c {
+                            b |= 0x80 >> i;
+                        }
+                    }
+                    out.push(b);
+                }
+            }
+            out
+        }
+        _ => {
+            let img = image::GrayImage::from_fn(width as u32, height as u32, |c, r| {
+                image::Luma([if cells[r as usize * width + c as usize] {
+                    0
+                } else {
+                    255
+                }])
+            });
+            let mut out = std::io::Cursor::new(Vec::new());
+            img.write_to(&mut out, image::ImageFormat::Png).unwrap();
+            out.into_inner()
+        }
+    }
+}
+
+/// How a valid file is damaged.
+#[derive(Clone, Debug)]
+enum Damage {
+    None,
+    Truncate(usize),
+    Overwrite(Vec<(usize, u8)>),
+    Insert(usize, Vec<u8>),
+    /// Replace the whole file with arbitrary bytes behind a magic number.
+    Arbitrary(&'static [u8], Vec<u8>),
+}
+
+fn damage() -> impl Strategy<Value = Damage> {
+    prop_oneof![
+        1 => Just(Damage::None),
+        2 => any::<usize>().prop_map(Damage::Truncate),
+        3 => proptest::collection::vec((any::<usize>(), any::<u8>()), 1..8).prop_map(Damage::Overwrite),
+        1 => (any::<usize>(), proptest::collection::vec(any::<u8>(), 1..16)).prop_map(|(a, b)| Damage::Insert(a, b)),
+        2 => (
+            prop_oneof![
+                Just(&b"P1\n"[..]),
+                Just(&b"P4\n"[..]),
+                Just(&b"P4\n99999 99999\n"[..]),
+                Just(&b"P1\n3 2\n"[..]),
+                Just(&b"\x89PNG\r\n\x1a\n"[..]),
+                Just(&b""[..]),
+            ],
+            proptest::collection::vec(any::<u8>(), 0..200)
+        )
+            .prop_map(|(m, b)| Damage::Arbitrary(m, b)),
+    ]
+}
+
+fn apply(mut bytes: Vec<u8>, d: &Damage) -> Vec<u8> {
+    match d {
+        Damage::None => bytes,
+        Damage::Truncate(at) => {
+            bytes.truncate(at % (bytes.len() + 1));
+            bytes
+        }
+        Damage::Overwrite(edits) => {
+            if !bytes.is_empty() {
+                let len = bytes.len();
+                for &(at, v) in edits {
+                    bytes[at % len] = v;
+                }
+            }
+            bytes
+        }
+        Damage::Insert(at, extra) => {
+            let at = at % (bytes.len() + 1);
+            bytes.splice(at..at, extra.iter().copied());
+            bytes
+        }
+        Damage::Arbitrary(magic, rest) => magic.iter().chain(rest).copied().collect(),
+    }
+}
+
+#[test]
+fn fuzz_cli_image_decoder() {
+    let dir = std::env::temp_dir().join(format!("hough-fuzz-images-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let counter = std::cell::Cell::new(0u32);
+    let decoded = std::cell::Cell::new(0u32);
+    fuzz(
+        "cli::images::read + place",
+        3000,
+        40,
+        (
+            (1usize..80, 1usize..80).prop_flat_map(|(w, h)| {
+                (
+                    Just(w),
+                    Just(h),
+                    proptest::collection::vec(any::<bool>(), w * h),
+                )
+            }),
+            0u8..3,
+            damage(),
+            any::<u8>(),
+            any::<bool>(),
+        ),
+        |((w, h, cells), format, d, level, invert)| {
+            let bytes = apply(encode(w, h, &cells, format), &d);
+            counter.set(counter.get() + 1);
+            let path = dir.join(format!("case-{}.img", counter.get()));
+            std::fs::File::create(&path)
+                .and_then(|mut f| f.write_all(&bytes))
+                .unwrap();
+            let threshold = cli::images::Threshold { level, invert };
+            match cli::images::read(&path, threshold) {
+                Ok(image) => {
+                    decoded.set(decoded.get() + 1);
+                    prop_assert!(image.count() > 0);
+                    for fit in [cli::images::Fit::Centre, cli::images::Fit::None] {
+                        if let Err(e) = cli::images::place(&image, "x.pbm", 64, fit) {
+                            prop_assert!(e.to_string().contains("x.pbm"), "{e}");
+                        }
+                    }
+                }
+                Err(e) => {
+                    let name = path.display().to_string();
+                    prop_assert!(
+                        e.to_string().contains(&name),
+                        "message without the file: {e}"
+                    );
+                }
+            }
+            let _ = std::fs::remove_file(&path);
+            Ok(())
+        },
+    );
+    println!("  of which decoded: {}", decoded.get());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A valid scan-pair line with `beams` beams per scan.
+fn pair_line(beams: usize, ranges: &[Option<f32>]) -> String {
+    let r: Vec<String> = (0..beams)
+        .map(|i| match ranges.get(i).copied().flatten() {
+            Some(v) if v.is_finite() => format!("{v}"),
+            _ => "null".into(),
+        })
+        .collect();
+    let scan = format!(
+        "{{\"ranges\":[{}],\"angle_min\":-1.57,\"angle_increment\":{},\"max_range\":30.0,\"laser_offset\":[0.1,0.0,0.0]}}",
+        r.join(","),
+        std::f32::consts::PI / beams.max(1) as f32
+    );
+    format!("{{\"scan1\":{scan},\"scan2\":{scan},\"dx\":0.1,\"dy\":0.0,\"dtheta\":0.05}}")
+}
+
+#[test]
+fn fuzz_cli_scan_pairs() {
+    let mut engine = cli::engine_for(64, 180).expect("64²/180 is compiled into the tool");
+    let engine = std::cell::RefCell::new(&mut engine);
+    let parsed = std::cell::Cell::new(0u32);
+    let options = cli::scans::RasterOptions {
+        cell: None,
+        connect: None,
+        disc: false,
+    };
+    fuzz(
+        "cli scan-pair lines",
+        3000,
+        50,
+        (
+            0usize..200,
+            proptest::collection::vec(proptest::option::of(wild_f32()), 0..200),
+            prop_oneof![3 => Just(Damage::None), 2 => damage()],
+            proptest::bool::weighted(0.2),
+        ),
+        |(beams, ranges, d, both)| {
+            let line = apply(pair_line(beams, &ranges).into_bytes(), &d);
+            // Also non-finite numbers spelled out (not JSON, must be refused).
+            let line = if both {
+                String::from_utf8_lossy(&line)
+                    .replace("30.0", "NaN")
+                    .into_bytes()
+            } else {
+                line
+            };
+            if let Ok(pair) = serde_json::from_slice::<cli::scans::PairRecord>(&line) {
+                parsed.set(parsed.get() + 1);
+                let mut engine = engine.borrow_mut();
+                match cli::scans::estimate(
+                    engine.as_mut(),
+                    &pair,
+                    &options,
+                    &[Mode::Improved, Mode::Paper],
+                ) {
+                    Ok(estimates) => {
+                        for e in &estimates {
+                            check(&e.estimate, false)?;
+                            prop_assert!(e.dtheta_deg.abs() <= 180.0 + 1e-3);
+                        }
+                    }
+                    Err(message) => prop_assert!(!message.is_empty()),
+                }
+            }
+            Ok(())
+        },
+    );
+    println!("  of which parsed and estimated: {}", parsed.get());
+}

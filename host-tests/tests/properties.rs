@@ -1,0 +1,656 @@
+//! Properties of the estimator on random scenes (`host_tests::scene`), for
+//! 64×64 / `N_THETA` 128, 128×128 / 360 and the non-square 96×64 / 512.
+//!
+//! What "rotation by exactly k θ steps" means here. A binary image can be
+//! rotated *exactly* only by a map that sends pixel centres to pixel centres:
+//! quarter turns of a square image and half turns of any image (the centred
+//! lattice `x = col − (W−1)/2` is invariant under them). For those
+//! (`scene::rotate_image`, a permutation of the occupied cells) the Q15 tables
+//! give the same integer ρ for a pixel and its image in the shifted column
+//! (`cos θ_{k+N/4} = −sin θ_k` entry for entry), so `D` and `S` of the turned
+//! image are the shifted signatures — except that a vote whose ρ is exactly a
+//! half-integer rounds up in both, so it moves one bin in the mirrored half
+//! (`A(θ + π, ρ)` is the mirror of `A(θ, ρ)` and would need round-half-down).
+//! Result: the paper mode returns exactly `k` steps and the improved mode
+//! returns `k` steps up to 0.05 step of sub-step interpolation. Any other
+//! angle can only rotate the *scene*: `render_pair` rotates the sample points
+//! of the segments exactly by `2πk/N` before rasterizing, and the estimate is
+//! then within the resolution `Δθ + atan(1/r)` (`r` the scene radius in
+//! pixels, see `reference_agreement.rs`).
+
+use host_tests::eval::{
+    angle_error_deg, axis_error_deg, grid_from_image, trial_pair, unobservable_direction,
+};
+use host_tests::reference::Image;
+use host_tests::scene::{
+    render_pair, rotate_image, Damage, Point, Scene, SceneKind, Segment, Transform,
+};
+use hough_heading::{
+    rho_bins, row_words, Accumulator, Angle, Correlation, Error, Estimate, Estimator, Grid,
+    HalfTurn, Mode, PeakKind, Prior, Reference, Score, Signature, Status,
+};
+use proptest::prelude::*;
+use proptest::test_runner::{RngSeed, TestCaseError};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::f64::consts::TAU;
+
+/// 24 cases per property from a fixed seed (reproducible runs); `HH_CASES`
+/// and `HH_SEED` in the environment override them for longer local runs. No
+/// regression files are written into the source tree.
+fn config() -> ProptestConfig {
+    fn env<T: std::str::FromStr>(name: &str) -> Option<T> {
+        std::env::var(name).ok().and_then(|v| v.parse().ok())
+    }
+    ProptestConfig {
+        cases: env("HH_CASES").unwrap_or(24),
+        rng_seed: RngSeed::Fixed(env("HH_SEED").unwrap_or(0x5052_4f50)),
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    }
+}
+
+fn damage() -> impl Strategy<Value = Damage> {
+    prop::sample::select(vec![Damage::CLEAN, Damage::MODERATE, Damage::HARSH])
+}
+
+fn asymmetric_kind() -> impl Strategy<Value = SceneKind> {
+    prop::sample::select(vec![SceneKind::RandomPolygon, SceneKind::ManhattanRoom])
+}
+
+fn degrees(a: Angle) -> f64 {
+    f64::from(a.0) * 360.0 / 4_294_967_296.0
+}
+
+/// Circular distance of two library angles, degrees.
+fn distance_deg(a: Angle, b: Angle) -> f64 {
+    degrees(a.distance(b))
+}
+
+/// `k` steps of an `N`-step circle as a library angle.
+fn steps(k: usize, n: usize) -> Angle {
+    Angle::from_steps_q16((k as i64) << 16, n)
+}
+
+/// The resolution bound of `reference_agreement.rs`: one θ step plus the
+/// angle one pixel subtends at the scene's radius, degrees.
+fn resolution_deg(n: usize, radius_px: f64) -> f64 {
+    360.0 / n as f64 + (1.0 / radius_px).atan().to_degrees()
+}
+
+/// Quarter turns (square grids) and half turns (any grid) of the pixels are
+/// recovered exactly (paper) or to 0.05 step (improved).
+fn check_exact_turns<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+>(
+    kind: SceneKind,
+    damage: &Damage,
+    seed: u64,
+) -> Result<(), TestCaseError> {
+    let (_, pair) = trial_pair(kind, damage, W, H, true, seed);
+    let image = &pair.i1.image;
+    let g1 = grid_from_image::<W, H, RW>(image);
+    let quarters: &[usize] = if W == H && N % 4 == 0 {
+        &[0, 1, 2, 3]
+    } else {
+        &[0, 2]
+    };
+    let step = 360.0 / N as f64;
+    for &q in quarters {
+        let k = q * N / 4;
+        let g2 = grid_from_image::<W, H, RW>(&rotate_image(image, k, N));
+        let truth = steps(k, N);
+        let paper = Estimator::<W, H, RW, N, HALF, RHO>::new(Mode::Paper).estimate_pair(&g1, &g2);
+        let improved =
+            Estimator::<W, H, RW, N, HALF, RHO>::new(Mode::Improved).estimate_pair(&g1, &g2);
+        // A rotation of the same pixels correlates perfectly at the true shift
+        // (up to the half-integer votes of the mirrored half).
+        prop_assert!(
+            paper.correlation > Score::from_num(0.99),
+            "{}",
+            paper.correlation
+        );
+        for (mode, e, tolerance) in [("paper", &paper, 0.0), ("improved", &improved, 0.05 * step)] {
+            if e.status == Status::AmbiguousDirection {
+                let axis = distance_deg(e.alpha, truth)
+                    .min(distance_deg(e.alpha, truth + Angle::HALF_TURN));
+                prop_assert!(axis <= tolerance, "{mode} k = {k}: axis off by {axis}°");
+            } else {
+                let error = distance_deg(e.alpha, truth);
+                prop_assert!(
+                    error <= tolerance,
+                    "{mode} k = {k}: {}° instead of {}°, status {:?}",
+                    degrees(e.alpha),
+                    degrees(truth),
+                    e.status
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Scenes whose sample points are rotated by exactly `k` steps (then
+/// rasterized): within the resolution bound; `Confident` results right over
+/// the full circle.
+fn check_point_rotation<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+>(
+    k: usize,
+    seed: u64,
+) -> Result<(), TestCaseError> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let scene = SceneKind::RandomPolygon.generate(&mut rng);
+    let alpha = TAU * k as f64 / N as f64;
+    let pair = render_pair(
+        &scene,
+        &Transform::rotation(alpha),
+        &Damage::CLEAN,
+        W,
+        H,
+        seed,
+    );
+    let g1 = grid_from_image::<W, H, RW>(&pair.i1.image);
+    let g2 = grid_from_image::<W, H, RW>(&pair.i2.image);
+    let e = Estimator::<W, H, RW, N, HALF, RHO>::new(Mode::Improved).estimate_pair(&g1, &g2);
+    if e.status == Status::Confident {
+        let bound = resolution_deg(N, pair.fit_radius_px);
+        let error = angle_error_deg(e.alpha, alpha);
+        prop_assert!(error <= bound, "k = {k}: error {error}° > {bound}°");
+    }
+    Ok(())
+}
+
+/// `Signature::stream` equals the signature of the full accumulator bit for
+/// bit, and the estimate follows the full-matrix path exactly.
+fn check_streaming<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+>(
+    kind: SceneKind,
+    damage: &Damage,
+    seed: u64,
+) -> Result<(), TestCaseError> {
+    let (_, pair) = trial_pair(kind, damage, W, H, true, seed);
+    let g1 = grid_from_image::<W, H, RW>(&pair.i1.image);
+    let g2 = grid_from_image::<W, H, RW>(&pair.i2.image);
+    let acc1 = Box::new(Accumulator::<HALF, RHO>::vote::<W, H, RW, N>(&g1));
+    let acc2 = Box::new(Accumulator::<HALF, RHO>::vote::<W, H, RW, N>(&g2));
+    let mut columns = [[0u16; RHO]; 2];
+    // The full accumulator's second half is the exact mirror of the first.
+    for k in (0..HALF).step_by(7) {
+        for b in 1..RHO {
+            prop_assert_eq!(acc1.get(k + HALF, b), acc1.get(k, RHO - b));
+        }
+    }
+    for mode in [Mode::Paper, Mode::Improved] {
+        let kind = mode.peak_kind();
+        let s1 = Signature::<HALF>::stream::<W, H, RW, N, RHO>(&g1, kind, &mut columns);
+        let s2 = Signature::<HALF>::stream::<W, H, RW, N, RHO>(&g2, kind, &mut columns);
+        let f1 = Signature::from_accumulator(&acc1, kind);
+        let f2 = Signature::from_accumulator(&acc2, kind);
+        prop_assert_eq!(&s1, &f1);
+        prop_assert_eq!(&s2, &f2);
+        // D(θ + π) = D(θ) and S(θ + π) = −S(θ) over the full circle, and D is
+        // the column maximum of the full matrix.
+        for k in 0..HALF {
+            prop_assert_eq!(f1.peak(k + HALF), f1.peak(k));
+            prop_assert_eq!(f1.asymmetry(k + HALF), -f1.asymmetry(k));
+            if kind == PeakKind::SingleBin {
+                let max = (0..RHO).map(|b| acc1.get(k + HALF, b)).max().unwrap_or(0);
+                prop_assert_eq!(max, f1.peak(k));
+            }
+        }
+        // The estimate, through the streaming path, against the correlation
+        // of the full-matrix signatures.
+        let e = Estimator::<W, H, RW, N, HALF, RHO>::new(mode).estimate_pair(&g1, &g2);
+        let correlation = Correlation::of(f1.peaks(), f2.peaks());
+        match correlation.best() {
+            None => prop_assert_eq!(e.status, Status::NoStructure),
+            Some(best) if e.status != Status::NoStructure => {
+                prop_assert_eq!(e.correlation, correlation.score(best));
+                let offset = if mode == Mode::Paper {
+                    0
+                } else {
+                    best.offset_q16()
+                };
+                let alpha = Angle::from_steps_q16(((best.shift as i64) << 16) + offset, N);
+                let expected = match e.half_turn.chosen {
+                    HalfTurn::Direct => alpha,
+                    HalfTurn::Flipped => alpha + Angle::HALF_TURN,
+                };
+                prop_assert_eq!(e.alpha, expected);
+            }
+            Some(_) => {}
+        }
+    }
+    Ok(())
+}
+
+/// Turning the second image by a half turn (a permutation of its pixels)
+/// turns the answer by a half turn: to one θ step in paper mode and 0.1 step
+/// in improved mode (votes at exact half-integer ρ round to the other side
+/// in the turned image, which can move a whole-step peak by one step or
+/// nudge the sub-step interpolation; measured ≤ 0.07 step over 2 × 400
+/// cases per configuration).
+fn check_half_turned_input<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+>(
+    kind: SceneKind,
+    damage: &Damage,
+    seed: u64,
+) -> Result<(), TestCaseError> {
+    let (_, pair) = trial_pair(kind, damage, W, H, true, seed);
+    let g1 = grid_from_image::<W, H, RW>(&pair.i1.image);
+    let g2 = grid_from_image::<W, H, RW>(&pair.i2.image);
+    let turned = grid_from_image::<W, H, RW>(&rotate_image(&pair.i2.image, N / 2, N));
+    let step = 360.0 / N as f64;
+    for (mode, tolerance) in [(Mode::Paper, step), (Mode::Improved, 0.1 * step)] {
+        let mut e = Estimator::<W, H, RW, N, HALF, RHO>::new(mode);
+        let a = e.estimate_pair(&g1, &g2);
+        let b = e.estimate_pair(&g1, &turned);
+        if a.status == Status::NoStructure {
+            prop_assert_eq!(b.status, Status::NoStructure);
+            continue;
+        }
+        let expected = a.alpha + Angle::HALF_TURN;
+        let axis = distance_deg(b.alpha, expected).min(distance_deg(b.alpha, a.alpha));
+        prop_assert!(axis <= tolerance, "{mode:?}: axis moved by {axis}°");
+        if a.status != Status::AmbiguousDirection && b.status != Status::AmbiguousDirection {
+            let error = distance_deg(b.alpha, expected);
+            prop_assert!(
+                error <= tolerance,
+                "{mode:?}: {}° then {}° for the half-turned image",
+                degrees(a.alpha),
+                degrees(b.alpha)
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Clean centrally symmetric scenes (corridors, rectangles, parallelograms,
+/// symmetric polygons and rooms) are flagged `AmbiguousDirection`, with both
+/// members of the pair among the candidates; a prior then picks the right one.
+fn check_symmetric<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+>(
+    kind: SceneKind,
+    seed: u64,
+) -> Result<(), TestCaseError> {
+    let (truth, pair) = trial_pair(kind, &Damage::CLEAN, W, H, true, seed);
+    let g1 = grid_from_image::<W, H, RW>(&pair.i1.image);
+    let g2 = grid_from_image::<W, H, RW>(&pair.i2.image);
+    let mut estimator = Estimator::<W, H, RW, N, HALF, RHO>::new(Mode::Improved);
+    let reference = estimator.reference(&g1);
+    let e = estimator.estimate(&reference, &g2);
+    prop_assert_eq!(e.status, Status::AmbiguousDirection, "{:?}", e.half_turn);
+    let has = |a: Angle| e.candidates.iter().any(|c| distance_deg(c.alpha, a) < 1e-6);
+    prop_assert!(
+        has(e.alpha) && has(e.alpha + Angle::HALF_TURN),
+        "{:?}",
+        e.candidates
+    );
+    // A prior within 20° of the truth (σ = 10°) picks the right member.
+    let axis = axis_error_deg(e.alpha, truth.alpha_rad);
+    if axis <= 5.0 {
+        let prior = Prior {
+            alpha: Angle::from_degrees((truth.alpha_rad.to_degrees() + 15.0) as f32),
+            sigma: Angle::from_degrees(10.0),
+        };
+        let p = estimator.estimate_with_prior(&reference, &g2, Some(prior));
+        let error = angle_error_deg(p.alpha, truth.alpha_rad);
+        prop_assert!(error <= 5.0, "prior picked {}°", degrees(p.alpha));
+    }
+    Ok(())
+}
+
+/// `Reference::to_bytes` / `from_bytes` round-trips; any single corrupted
+/// byte, a short buffer or another configuration is refused.
+fn check_reference_bytes<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+>(
+    kind: SceneKind,
+    damage: &Damage,
+    seed: u64,
+    corrupt_at: prop::sample::Index,
+    corrupt_with: u8,
+) -> Result<(), TestCaseError> {
+    let (_, pair) = trial_pair(kind, damage, W, H, true, seed);
+    let g1 = grid_from_image::<W, H, RW>(&pair.i1.image);
+    let g2 = grid_from_image::<W, H, RW>(&pair.i2.image);
+    for mode in [Mode::Paper, Mode::Improved] {
+        let mut e = Estimator::<W, H, RW, N, HALF, RHO>::new(mode);
+        let reference = e.reference(&g1);
+        let mut bytes = vec![0u8; Reference::<W, H, HALF, RHO>::BYTES + 3];
+        let len = reference.to_bytes(&mut bytes).expect("large enough");
+        prop_assert_eq!(len, Reference::<W, H, HALF, RHO>::BYTES);
+        let back = Reference::<W, H, HALF, RHO>::from_bytes(&bytes[..len]).expect("round trip");
+        prop_assert_eq!(&back, &reference);
+        prop_assert_eq!(e.estimate(&back, &g2), e.estimate(&reference, &g2));
+        // One corrupted byte (xor with a non-zero value) anywhere.
+        let mut bad = bytes[..len].to_vec();
+        bad[corrupt_at.index(len)] ^= corrupt_with;
+        prop_assert_eq!(
+            Reference::<W, H, HALF, RHO>::from_bytes(&bad),
+            Err(Error::InvalidReference)
+        );
+        // Too short, for writing and reading.
+        prop_assert_eq!(
+            reference.to_bytes(&mut bytes[..len - 1]),
+            Err(Error::BufferTooSmall { needed: len })
+        );
+        prop_assert_eq!(
+            Reference::<W, H, HALF, RHO>::from_bytes(&bytes[..len - 1]),
+            Err(Error::BufferTooSmall { needed: len })
+        );
+        // Another configuration's reference: refused whatever its length.
+        type Other = Reference<90, 90, 100, 1024>;
+        let other = Other::from_bytes(&bytes[..len]);
+        prop_assert!(
+            matches!(
+                other,
+                Err(Error::InvalidReference | Error::BufferTooSmall { .. })
+            ),
+            "{other:?}"
+        );
+    }
+    Ok(())
+}
+
+/// Known translations (whole and fractional pixels: multiples of ¼ px up to
+/// ±6 px), scale 1: recovered within 1 px on clean scenes and 1.5 px with
+/// moderate damage when the rotation is right (measured maxima 0.85 px and
+/// 1.23 px over 1800 trials each), restricted to the observable component
+/// when the library reports an unobservable direction.
+fn check_translation<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+>(
+    damage: &Damage,
+    quarters: (i32, i32),
+    seed: u64,
+) -> Result<(), TestCaseError> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let scene = SceneKind::RandomPolygon.generate(&mut rng);
+    let truth = Transform {
+        alpha_rad: rng.gen_range(0.0..TAU),
+        tx: f64::from(quarters.0) / 4.0,
+        ty: f64::from(quarters.1) / 4.0,
+        scale: 1.0,
+    };
+    let pair = render_pair(&scene, &truth, damage, W, H, seed);
+    let g1 = grid_from_image::<W, H, RW>(&pair.i1.image);
+    let g2 = grid_from_image::<W, H, RW>(&pair.i2.image);
+    let e = Estimator::<W, H, RW, N, HALF, RHO>::new(Mode::Improved).estimate_pair(&g1, &g2);
+    if angle_error_deg(e.alpha, truth.alpha_rad) > 5.0 {
+        // Wrong rotation: the translation is meaningless, but the estimate
+        // must have said it was unsure.
+        prop_assert!(e.status != Status::Confident, "confident and wrong");
+        return Ok(());
+    }
+    let t = e
+        .translation
+        .expect("a translation with the rotation resolved");
+    let (mut dx, mut dy) = (
+        t.x.to_num::<f64>() - truth.tx,
+        t.y.to_num::<f64>() - truth.ty,
+    );
+    if let Some((ux, uy)) = t.unobservable {
+        // Only the component across the reported direction is claimed (this
+        // happens for ~1 % of polygons, whose strongest profile columns are
+        // nearly parallel).
+        let (ux, uy) = unobservable_direction(ux.to_num(), uy.to_num());
+        let along = dx * ux + dy * uy;
+        (dx, dy) = (dx - along * ux, dy - along * uy);
+    }
+    let bound = if *damage == Damage::CLEAN { 1.0 } else { 1.5 };
+    prop_assert!(
+        dx.hypot(dy) <= bound,
+        "t = ({}, {}) for ({}, {}), unobservable {:?}",
+        t.x,
+        t.y,
+        truth.tx,
+        truth.ty,
+        t.unobservable
+    );
+    Ok(())
+}
+
+/// No grid content makes the estimator panic; the status is sensible.
+fn check_any_grid<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+>(
+    density1: f64,
+    density2: f64,
+    seed: u64,
+    prior: Option<(f32, f32)>,
+) -> Result<(), TestCaseError> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut noise = |density: f64| {
+        let mut g = Grid::<W, H, RW>::new();
+        for row in 0..H {
+            for col in 0..W {
+                if rng.gen_bool(density) {
+                    g.set(col, row).expect("inside");
+                }
+            }
+        }
+        g
+    };
+    let (g1, g2) = (noise(density1), noise(density2));
+    for mode in [Mode::Paper, Mode::Improved] {
+        let mut e = Estimator::<W, H, RW, N, HALF, RHO>::new(mode);
+        let reference = e.reference(&g1);
+        let prior = prior.map(|(a, s)| Prior {
+            alpha: Angle::from_degrees(a),
+            sigma: Angle::from_degrees(s),
+        });
+        let r: Estimate = e.estimate_with_prior(&reference, &g2, prior);
+        prop_assert!(r.confidence >= Score::ZERO && r.confidence <= Score::ONE);
+        if g1.occupied() < 8 || g2.occupied() < 8 {
+            prop_assert_eq!(r.status, Status::NoStructure);
+        }
+        if r.status == Status::NoStructure {
+            prop_assert!(r.candidates.is_empty() && r.translation.is_none());
+        } else {
+            prop_assert!(!r.candidates.is_empty());
+        }
+    }
+    Ok(())
+}
+
+macro_rules! configuration {
+    ($name:ident, $w:literal, $h:literal, $n:literal) => {
+        mod $name {
+            use super::*;
+            const HALF: usize = $n / 2;
+            const RW: usize = row_words($w);
+            const RHO: usize = rho_bins($w, $h);
+
+            proptest! {
+                #![proptest_config(config())]
+
+                #[test]
+                fn exact_turns_are_recovered_exactly(
+                    kind in asymmetric_kind(), damage in damage(), seed in any::<u64>(),
+                ) {
+                    check_exact_turns::<$w, $h, RW, $n, HALF, RHO>(kind, &damage, seed)?;
+                }
+
+                #[test]
+                fn point_sets_rotated_by_k_steps_within_resolution(
+                    k in 0usize..$n, seed in any::<u64>(),
+                ) {
+                    check_point_rotation::<$w, $h, RW, $n, HALF, RHO>(k, seed)?;
+                }
+
+                #[test]
+                fn streaming_equals_full_accumulator(
+                    kind in prop::sample::select(SceneKind::ALL.to_vec()),
+                    damage in damage(),
+                    seed in any::<u64>(),
+                ) {
+                    check_streaming::<$w, $h, RW, $n, HALF, RHO>(kind, &damage, seed)?;
+                }
+
+                #[test]
+                fn half_turned_input_gives_half_turned_answer(
+                    kind in asymmetric_kind(), damage in damage(), seed in any::<u64>(),
+                ) {
+                    check_half_turned_input::<$w, $h, RW, $n, HALF, RHO>(kind, &damage, seed)?;
+                }
+
+                #[test]
+                fn centrally_symmetric_scenes_are_ambiguous_direction(
+                    kind in prop::sample::select(vec![
+                        SceneKind::Corridor,
+                        SceneKind::CentrallySymmetric,
+                    ]),
+                    seed in any::<u64>(),
+                ) {
+                    check_symmetric::<$w, $h, RW, $n, HALF, RHO>(kind, seed)?;
+                }
+
+                #[test]
+                fn reference_bytes_round_trip_and_reject_corruption(
+                    kind in prop::sample::select(SceneKind::ALL.to_vec()),
+                    damage in damage(),
+                    seed in any::<u64>(),
+                    corrupt_at in any::<prop::sample::Index>(),
+                    corrupt_with in 1u8..=255,
+                ) {
+                    check_reference_bytes::<$w, $h, RW, $n, HALF, RHO>(
+                        kind, &damage, seed, corrupt_at, corrupt_with,
+                    )?;
+                }
+
+                #[test]
+                fn known_translations_are_recovered(
+                    damage in prop::sample::select(vec![Damage::CLEAN, Damage::MODERATE]),
+                    quarters in (-24i32..=24, -24i32..=24),
+                    seed in any::<u64>(),
+                ) {
+                    check_translation::<$w, $h, RW, $n, HALF, RHO>(&damage, quarters, seed)?;
+                }
+
+                #[test]
+                fn no_panic_on_any_grid(
+                    d1 in prop::sample::select(vec![0.0, 0.001, 0.01, 0.1, 0.5, 0.9, 1.0]),
+                    d2 in prop::sample::select(vec![0.0, 0.001, 0.01, 0.1, 0.5, 0.9, 1.0]),
+                    seed in any::<u64>(),
+                    prior in prop::option::of((-720.0f32..720.0, 0.0f32..200.0)),
+                ) {
+                    check_any_grid::<$w, $h, RW, $n, HALF, RHO>(d1, d2, seed, prior)?;
+                }
+            }
+        }
+    };
+}
+
+configuration!(c64x64_n128, 64, 64, 128);
+configuration!(c128x128_n360, 128, 128, 360);
+configuration!(c96x64_n512, 96, 64, 512);
+
+/// A corridor whose walls cross the whole image (no ends, no doors): the
+/// shift along the walls is not observable, and the estimate must say so with
+/// a unit vector along the walls.
+///
+/// Ignored: fails with the current library (about 3 in 4 such corridors come
+/// back with an "observable" translation whose along-wall component is set by
+/// the weak profile columns, and when a direction is reported it is 8–18° off
+/// the walls and not of unit length — see host-tests/ACCURACY.md, section
+/// "Translation"). Run with `cargo test -- --ignored`.
+#[test]
+#[ignore = "library reports most wall-to-wall corridors as observable (ACCURACY.md)"]
+fn corridor_reports_the_unobservable_direction() {
+    type E = hough_heading::estimator!(128, 128, 360);
+    type G = hough_heading::grid!(128, 128);
+    let mut failures = Vec::new();
+    for seed in 0..24u64 {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let w = rng.gen_range(0.15..0.4);
+        // Walls from x = −3 to 3 (three disc radii): clipped by the image.
+        let scene = Scene {
+            segments: vec![
+                Segment::new(Point::new(-3.0, w), Point::new(3.0, w)),
+                Segment::new(Point::new(-3.0, -w), Point::new(3.0, -w)),
+            ],
+        };
+        let truth = Transform {
+            alpha_rad: rng.gen_range(0.0..TAU),
+            tx: rng.gen_range(-5.0..5.0),
+            ty: rng.gen_range(-5.0..5.0),
+            scale: 1.0,
+        };
+        let pair = render_pair(&scene, &truth, &Damage::CLEAN, 128, 128, seed);
+        let g1: G = grid_from_image(&pair.i1.image);
+        let g2: G = grid_from_image(&pair.i2.image);
+        let e = E::new(Mode::Improved).estimate_pair(&g1, &g2);
+        let along = truth.alpha_rad.sin_cos();
+        let ok = e.status == Status::AmbiguousDirection
+            && e.translation.is_some_and(|t| {
+                t.unobservable.is_some_and(|(ux, uy)| {
+                    let (ux, uy) = (ux.to_num::<f64>(), uy.to_num::<f64>());
+                    let (nx, ny) = unobservable_direction(ux, uy);
+                    (ux.hypot(uy) - 1.0).abs() < 0.01
+                        && (nx * along.1 + ny * along.0).abs() > 5f64.to_radians().cos()
+                })
+            });
+        if !ok {
+            failures.push((seed, e.translation));
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} of 24: {failures:?}",
+        failures.len()
+    );
+}
+
+/// The image helpers the properties rely on.
+#[test]
+fn rotate_image_quarter_turn_is_a_permutation() {
+    let image = Image::from_cells(8, 8, &[(0, 0), (7, 0), (3, 5)]);
+    let turned = rotate_image(&image, 90, 360);
+    // (x, y) → (−y, x): the top-left cell goes to the bottom-left.
+    assert!(turned.get(0, 7) && turned.get(0, 0) && turned.count() == 3);
+}

@@ -1,0 +1,221 @@
+//! `budgets`: the firmware side of hough-heading's CI.
+//!
+//! ```text
+//! budgets run --machine MACHINE [--timeout SECONDS] ELF
+//! budgets report [--check] [--root DIR] [--plugin LIB]
+//! ```
+//!
+//! `run` starts a firmware ELF on a `qemu-system-arm` machine with semihosting,
+//! prints its `defmt` log decoded with the ELF's table (what `defmt-print -e ELF`
+//! does) and QEMU's standard error, and exits with the firmware's exit status
+//! (124 on timeout).
+//!
+//! `report` builds `examples/bench.rs` for every target and configuration,
+//! runs it under QEMU with the `qemu-icount` plugin, prints the budget table
+//! and writes `budgets/budgets.json` and `budgets/TABLE.md`, and the table
+//! into `README.md` between `<!-- budgets:start -->` and
+//! `<!-- budgets:end -->` when both markers are there. With `--check` it
+//! writes nothing in `budgets/` (the measurement goes to
+//! `target/budgets/measured.json`) and fails when a value grew by more than
+//! 10 % over `budgets/budgets.json`. Both fail on a wrong estimate.
+//! `bash tools/budgets.sh` builds the tools and runs `report`.
+
+mod elf;
+mod qemu;
+mod report;
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Duration;
+
+use serde_json::{json, Value};
+
+/// Errors are reported as text.
+pub type Error = Box<dyn std::error::Error>;
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let result = match args.first().map(String::as_str) {
+        Some("run") => run(&args[1..]),
+        Some("report") => report(&args[1..]),
+        _ => Err(
+            "usage: budgets run --machine M [--timeout S] ELF | budgets report [--check]".into(),
+        ),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("budgets: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// The value following `--name` in `args`, if present.
+fn option<'a>(args: &'a [String], name: &str) -> Option<&'a str> {
+    args.iter()
+        .position(|a| a == name)
+        .and_then(|i| args.get(i + 1))
+        .map(String::as_str)
+}
+
+/// `budgets run`.
+fn run(args: &[String]) -> Result<ExitCode, Error> {
+    let machine = option(args, "--machine").ok_or("--machine is required")?;
+    let timeout = option(args, "--timeout").map_or(Ok(30), str::parse)?;
+    let elf = args
+        .last()
+        .filter(|a| !a.starts_with("--"))
+        .ok_or("ELF path missing")?;
+    let outcome = qemu::run(Path::new(elf), machine, None, Duration::from_secs(timeout))?;
+    for line in &outcome.log {
+        println!("  {line}");
+    }
+    eprint!("{}", outcome.stderr);
+    Ok(match outcome.status {
+        _ if outcome.timed_out => {
+            eprintln!("budgets: {elf} timed out after {timeout} s");
+            ExitCode::from(124)
+        }
+        Some(0) => ExitCode::SUCCESS,
+        Some(code) => {
+            eprintln!("budgets: {elf} exited with status {code}");
+            ExitCode::from(u8::try_from(code).unwrap_or(1).max(1))
+        }
+        None => ExitCode::FAILURE,
+    })
+}
+
+/// `budgets report [--check]`.
+fn report(args: &[String]) -> Result<ExitCode, Error> {
+    let check = args.iter().any(|a| a == "--check");
+    let root = PathBuf::from(option(args, "--root").unwrap_or("."));
+    let plugin = option(args, "--plugin")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root.join("target/tools/debug/libqemu_icount.so"));
+    if !plugin.exists() {
+        return Err(format!("plugin {} not built", plugin.display()).into());
+    }
+    let paths = report::Paths {
+        root: root.clone(),
+        plugin,
+    };
+    let measured = report::measure(&paths)?;
+    let body = json!({
+        "generated_by": "bash tools/budgets.sh",
+        "tolerance": report::TOLERANCE,
+        "units": "instructions: guest instructions counted by the qemu-icount plugin; \
+                  per vote: divided by occupied cells × N_THETA/2; bytes otherwise",
+        "toolchain": command_line("rustc", &["--version"]),
+        "qemu": command_line("qemu-system-arm", &["--version"]),
+        "targets": measured.targets,
+    });
+    println!("{}", measured.table);
+
+    let budget_path = root.join("budgets/budgets.json");
+    let mut failed = false;
+    if check {
+        write(&root.join("target/budgets/measured.json"), &pretty(&body)?)?;
+        let text = std::fs::read_to_string(&budget_path)
+            .map_err(|e| format!("read {}: {e}", budget_path.display()))?;
+        let budget: Value = serde_json::from_str(&text)?;
+        let now = body["targets"].as_object().ok_or("no targets measured")?;
+        let regressions = report::check(&budget, now);
+        for r in &regressions {
+            eprintln!("budgets: REGRESSION {r}");
+        }
+        if regressions.is_empty() {
+            eprintln!(
+                "budgets: every budget within {:.0} %",
+                report::TOLERANCE * 100.0
+            );
+        }
+        failed |= !regressions.is_empty();
+    } else {
+        write(&budget_path, &pretty(&body)?)?;
+        write(&root.join("budgets/TABLE.md"), &table_page(&measured.table))?;
+        eprintln!("budgets: wrote budgets/budgets.json and budgets/TABLE.md");
+        update_readme(&root.join("README.md"), &measured.table)?;
+    }
+    for f in &measured.failures {
+        eprintln!("budgets: FAILED {f}");
+    }
+    failed |= !measured.failures.is_empty();
+    Ok(if failed {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+/// The first line a command prints, or `"unknown"`.
+fn command_line(program: &str, args: &[&str]) -> String {
+    std::process::Command::new(program)
+        .args(args)
+        .output()
+        .ok()
+        .and_then(|o| String::from_utf8(o.stdout).ok())
+        .and_then(|s| s.lines().next().map(str::to_owned))
+        .unwrap_or_else(|| "unknown".into())
+}
+
+fn pretty(value: &Value) -> Result<String, Error> {
+    Ok(serde_json::to_string_pretty(value)? + "\n")
+}
+
+fn write(path: &Path, text: &str) -> Result<(), Error> {
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir)?;
+    }
+    std::fs::write(path, text).map_err(|e| format!("write {}: {e}", path.display()).into())
+}
+
+/// Markers around the budget table in `README.md`.
+const README_MARKERS: (&str, &str) = ("<!-- budgets:start -->", "<!-- budgets:end -->");
+
+/// Replaces the text between [`README_MARKERS`] in the README with `table`,
+/// when the README has both markers.
+fn update_readme(path: &Path, table: &str) -> Result<(), Error> {
+    let Ok(text) = std::fs::read_to_string(path) else {
+        return Ok(());
+    };
+    let (start, end) = README_MARKERS;
+    let (Some(a), Some(b)) = (text.find(start), text.find(end)) else {
+        eprintln!("budgets: README.md has no {start} … {end} markers; table not copied there");
+        return Ok(());
+    };
+    if b < a {
+        return Err("README.md: budgets markers out of order".into());
+    }
+    let updated = format!("{}{start}\n{table}{}", &text[..a], &text[b..]);
+    if updated != text {
+        write(path, &updated)?;
+        eprintln!("budgets: updated the table in README.md");
+    }
+    Ok(())
+}
+
+/// `budgets/TABLE.md`: the table with how it was made.
+fn table_page(table: &str) -> String {
+    format!(
+        "# Firmware budgets\n\n\
+         Regenerate with `bash tools/budgets.sh` (CI runs `bash tools/budgets.sh --check`, which fails \
+         when a value grows by more than 10 % over `budgets/budgets.json`).\n\n\
+         {table}\n\
+         - Scene: two room outlines (`examples/support/room.rs`) in flash, the second turned by 30° and \
+         shifted; `Mode::Improved`. Every estimate above was checked against the 30° (±1°).\n\
+         - *instr. / estimate*: guest instructions of `Estimator::estimate` against a prepared reference, \
+         counted exactly by the `qemu-icount` TCG plugin (`tools/qemu-icount`) between two marker \
+         functions, minus the markers' own cost. *instr. / vote*: that divided by the votes (occupied \
+         cells × N_θ/2). *vote loop*: `vote_column` alone over θ ∈ [0, π). *instr. / reference*: \
+         `Estimator::reference`.\n\
+         - *estimator RAM*: `size_of` the estimator and the reference, plus the peak stack of the estimate \
+         call: the lowest stack address written during it (the plugin watches every store), below the \
+         stack pointer at the call. The grids are not counted (they are inputs, here in flash).\n\
+         - *static RAM*: `.data + .bss` of the whole firmware (logger, runtime); the library has none. \
+         *library flash*: flash of the firmware minus the same firmware built without calling the \
+         library (`HH_BENCH_BASELINE=1`) minus the two grids.\n\
+         - Cortex-M4F runs on QEMU `mps2-an386`, Cortex-M0 on `microbit` (16 KiB RAM); RISC-V is only \
+         built (sizes). Release profile: `opt-level = 3`, LTO, one codegen unit.\n"
+    )
+}

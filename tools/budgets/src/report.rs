@@ -1,0 +1,522 @@
+//! The budget report: builds `examples/bench.rs` per target and configuration,
+//! runs it under QEMU with the `qemu-icount` plugin, and tabulates
+//! instructions, RAM, stack and flash; or checks them against the committed
+//! budget file.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Duration;
+
+use serde_json::{json, Map, Value};
+
+use crate::qemu::{self, field, number, Plugin};
+use crate::{elf, Error};
+
+/// A target the budgets cover.
+pub struct Target {
+    /// Rust target triple.
+    pub triple: &'static str,
+    /// Short name in the table.
+    pub name: &'static str,
+    /// The QEMU machine that runs it, if any (RISC-V is only built).
+    pub machine: Option<&'static str>,
+    /// RAM of that machine, bytes (for the "does not fit" note).
+    pub ram: u64,
+}
+
+/// Start of RAM on both QEMU boards: a stack pointer below it after a crash
+/// means the stack overflowed the RAM.
+const RAM_ORIGIN: u64 = 0x2000_0000;
+
+/// The targets, in table order.
+pub const TARGETS: [Target; 3] = [
+    Target {
+        triple: "thumbv7em-none-eabihf",
+        name: "Cortex-M4F",
+        machine: Some("mps2-an386"),
+        ram: 4 << 20,
+    },
+    Target {
+        triple: "thumbv6m-none-eabi",
+        name: "Cortex-M0",
+        machine: Some("microbit"),
+        ram: 16 << 10,
+    },
+    Target {
+        triple: "riscv32imac-unknown-none-elf",
+        name: "RV32IMAC",
+        machine: None,
+        ram: 0,
+    },
+];
+
+/// Image sides measured.
+const SIDES: [usize; 3] = [64, 128, 256];
+
+/// Allowed growth of any budget before `--check` fails.
+pub const TOLERANCE: f64 = 0.10;
+
+/// Budget keys `--check` compares (all "smaller is better").
+const CHECKED: [&str; 9] = [
+    "instructions_estimate",
+    "instructions_reference",
+    "instructions_per_vote",
+    "vote_loop_per_vote",
+    "stack_estimate",
+    "ram_estimator",
+    "static_ram",
+    "flash_library",
+    "flash_total",
+];
+
+/// Time limit of one firmware run.
+const RUN_TIMEOUT: Duration = Duration::from_secs(60);
+
+/// One configuration: image side and θ steps, with how `N_THETA` was chosen.
+#[derive(Clone, Copy, Debug)]
+pub struct Config {
+    /// Image side (square images).
+    pub side: usize,
+    /// θ steps over the full circle.
+    pub n_theta: usize,
+    /// `"360"`, or the paper's range: `"min"` / `"max"`.
+    pub choice: &'static str,
+}
+
+impl Config {
+    /// The key in the budget file.
+    fn key(&self) -> String {
+        format!("{0}x{0}/{1}", self.side, self.n_theta)
+    }
+}
+
+/// The configurations: each side with `N_THETA` = 360 and the two ends of the
+/// paper's recommended range (`hough_heading::recommended_n_theta`; the upper
+/// end is exclusive, so the largest even value below it).
+pub fn configs() -> Vec<Config> {
+    let mut out = Vec::new();
+    for side in SIDES {
+        let (min, max_exclusive) = hough_heading::recommended_n_theta(side, side);
+        let max = (max_exclusive - 1) & !1;
+        for (n_theta, choice) in [(min, "min"), (360, "360"), (max, "max")] {
+            if !out
+                .iter()
+                .any(|c: &Config| c.side == side && c.n_theta == n_theta)
+            {
+                out.push(Config {
+                    side,
+                    n_theta,
+                    choice,
+                });
+            }
+        }
+    }
+    out
+}
+
+/// Paths the report uses.
+pub struct Paths {
+    /// Repository root (where `Cargo.toml` is).
+    pub root: PathBuf,
+    /// The built `qemu-icount` plugin.
+    pub plugin: PathBuf,
+}
+
+/// Builds the bench example for `target` and returns a copy of its ELF under
+/// `target/budgets/`.
+fn build(paths: &Paths, target: &Target, config: Option<&Config>) -> Result<PathBuf, Error> {
+    let mut command = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+    command
+        .current_dir(&paths.root)
+        .args([
+            "build",
+            "-q",
+            "--release",
+            "--example",
+            "bench",
+            "--message-format=json",
+        ])
+        .args(["--target", target.triple]);
+    let name = match config {
+        Some(c) => {
+            command
+                .env("HH_BENCH_SIDE", c.side.to_string())
+                .env("HH_BENCH_N_THETA", c.n_theta.to_string())
+                .env("HH_BENCH_BASELINE", "0");
+            format!("bench-{}-{}.elf", c.side, c.n_theta)
+        }
+        None => {
+            command.env("HH_BENCH_BASELINE", "1");
+            "bench-baseline.elf".into()
+        }
+    };
+    let output = command.output().map_err(|e| format!("run cargo: {e}"))?;
+    if !output.status.success() {
+        return Err(format!(
+            "cargo build of bench for {} failed:\n{}",
+            target.triple,
+            String::from_utf8_lossy(&output.stderr)
+        )
+        .into());
+    }
+    let executable = String::from_utf8_lossy(&output.stdout)
+        .lines()
+        .filter_map(|line| serde_json::from_str::<Value>(line).ok())
+        .filter(|m| m["reason"] == "compiler-artifact" && m["target"]["name"] == "bench")
+        .find_map(|m| m["executable"].as_str().map(PathBuf::from))
+        .ok_or("cargo reported no bench executable")?;
+    let dir = paths.root.join("target/budgets").join(target.triple);
+    std::fs::create_dir_all(&dir).map_err(|e| format!("create {}: {e}", dir.display()))?;
+    let copy = dir.join(name);
+    std::fs::copy(&executable, &copy).map_err(|e| format!("copy {}: {e}", executable.display()))?;
+    Ok(copy)
+}
+
+/// The measured values of one run of the bench firmware.
+struct RunResult {
+    /// `Some(state bytes)` when the estimator's state does not fit the RAM.
+    does_not_fit: Option<u64>,
+    /// Entries for the budget file.
+    values: Map<String, Value>,
+    /// Why the run failed (wrong estimate, crash, timeout), if it did.
+    failure: Option<String>,
+}
+
+/// Runs one bench ELF and pairs the firmware's `bench` lines with the
+/// plugin's counts.
+fn measure_run(
+    paths: &Paths,
+    target: &Target,
+    elf_path: &Path,
+    image: &elf::Image,
+) -> Result<RunResult, Error> {
+    let machine = target.machine.ok_or("not runnable")?;
+    let plugin = Plugin {
+        library: paths.plugin.clone(),
+        start: image.start.ok_or("no hh_bench_start symbol")?,
+        stop: image.stop.ok_or("no hh_bench_stop symbol")?,
+        stack: image.stack.ok_or("no _stack_end/_stack_start symbols")?,
+    };
+    let run = qemu::run(elf_path, machine, Some(&plugin), RUN_TIMEOUT)?;
+    let mut values = Map::new();
+    let config = run
+        .log
+        .iter()
+        .find(|l| l.starts_with("config "))
+        .ok_or("no config line")?;
+    let state = ["estimator", "reference"]
+        .iter()
+        .map(|k| field(config, k).and_then(number).unwrap_or(0))
+        .sum::<u64>();
+    values.insert("state".into(), json!(state));
+
+    if run.status == Some(3) || run.log.iter().any(|l| l.starts_with("does-not-fit")) {
+        return Ok(RunResult {
+            does_not_fit: Some(state),
+            values,
+            failure: None,
+        });
+    }
+    let counts: Vec<(u64, Option<u64>)> = run
+        .stderr
+        .lines()
+        .filter_map(|l| l.strip_prefix("hh-icount "))
+        .map(|rest| {
+            let count = rest.split_whitespace().next().and_then(number).unwrap_or(0);
+            (count, field(rest, "stack_low").and_then(number))
+        })
+        .collect();
+    let benches: Vec<&String> = run.log.iter().filter(|l| l.starts_with("bench ")).collect();
+    if run.status != Some(0) || counts.len() != benches.len() || benches.len() != 4 {
+        let why = if run.timed_out {
+            "timed out (crash or stack overflow)".to_string()
+        } else if run.status == Some(1) {
+            format!(
+                "wrong estimate: {}",
+                run.log.last().map_or("", String::as_str)
+            )
+        } else {
+            format!("exit status {:?}", run.status)
+        };
+        // QEMU's dump of a locked-up core shows the stack pointer (R13): below
+        // the RAM, the stack overflowed, and the configuration does not fit.
+        if crashed_stack_pointer(&run.stderr).is_some_and(|sp| sp < RAM_ORIGIN) {
+            return Ok(RunResult {
+                does_not_fit: Some(state),
+                values,
+                failure: None,
+            });
+        }
+        return Ok(RunResult {
+            does_not_fit: None,
+            values,
+            failure: Some(format!("{why}\n{}\n{}", run.log.join("\n"), run.stderr)),
+        });
+    }
+
+    let overhead = counts[0].0;
+    let mut per = BTreeMap::new();
+    for (line, &(count, low)) in benches.iter().zip(&counts) {
+        let what = line.split_whitespace().nth(1).unwrap_or("?");
+        let sp = field(line, "sp").and_then(number).unwrap_or(0);
+        let votes = field(line, "votes").and_then(number).unwrap_or(0);
+        let stack = low.map_or(0, |low| sp.saturating_sub(low));
+        per.insert(
+            what.to_string(),
+            (count.saturating_sub(overhead), votes, stack),
+        );
+    }
+    let get = |what: &str| per.get(what).copied().unwrap_or((0, 0, 0));
+    let (reference, _, stack_reference) = get("reference");
+    let (estimate, votes, stack_estimate) = get("estimate");
+    let (vote_loop, _, _) = get("votes");
+    let ratio = |n: u64| {
+        if votes == 0 {
+            0.0
+        } else {
+            (n as f64 / votes as f64 * 100.0).round() / 100.0
+        }
+    };
+    let result = run
+        .log
+        .iter()
+        .find(|l| l.starts_with("result "))
+        .ok_or("no result line")?;
+    values.insert("votes".into(), json!(votes));
+    values.insert("instructions_reference".into(), json!(reference));
+    values.insert("instructions_estimate".into(), json!(estimate));
+    values.insert("instructions_vote_loop".into(), json!(vote_loop));
+    values.insert("instructions_per_vote".into(), json!(ratio(estimate)));
+    values.insert("vote_loop_per_vote".into(), json!(ratio(vote_loop)));
+    values.insert("stack_reference".into(), json!(stack_reference));
+    values.insert("stack_estimate".into(), json!(stack_estimate));
+    values.insert(
+        "ram_estimator".into(),
+        json!(state + stack_estimate.max(stack_reference)),
+    );
+    let alpha = field(result, "alpha_mdeg")
+        .and_then(|v| v.parse::<i64>().ok())
+        .unwrap_or(0);
+    values.insert("alpha_mdeg".into(), json!(alpha));
+    values.insert(
+        "status".into(),
+        json!(field(result, "status").unwrap_or("?")),
+    );
+    Ok(RunResult {
+        does_not_fit: None,
+        values,
+        failure: None,
+    })
+}
+
+/// The stack pointer in QEMU's register dump after a fatal error
+/// (`R13=1ffffd18`), if there is one.
+fn crashed_stack_pointer(stderr: &str) -> Option<u64> {
+    let at = stderr.find("R13=")? + 4;
+    u64::from_str_radix(stderr.get(at..at + 8)?, 16).ok()
+}
+
+/// Everything measured: `target triple → config key → values`, plus the
+/// failures seen.
+pub struct Measured {
+    /// The budget-file body.
+    pub targets: Map<String, Value>,
+    /// The Markdown table.
+    pub table: String,
+    /// Wrong estimates, crashes.
+    pub failures: Vec<String>,
+}
+
+/// Builds and measures every target and configuration.
+pub fn measure(paths: &Paths) -> Result<Measured, Error> {
+    let configs = configs();
+    let mut targets = Map::new();
+    let mut failures = Vec::new();
+    let mut rows = Vec::new();
+    for target in &TARGETS {
+        eprintln!("budgets: {} ({})", target.name, target.triple);
+        let baseline = elf::read(&build(paths, target, None)?)?;
+        let mut entries = Map::new();
+        for config in &configs {
+            let path = build(paths, target, Some(config))?;
+            let image = elf::read(&path)?;
+            let mut values = Map::new();
+            let flash_library = image.flash.saturating_sub(baseline.flash + image.grids);
+            values.insert("flash_total".into(), json!(image.flash));
+            values.insert("flash_library".into(), json!(flash_library));
+            values.insert("static_ram".into(), json!(image.static_ram));
+            values.insert(
+                "static_ram_library".into(),
+                json!(image.static_ram.saturating_sub(baseline.static_ram)),
+            );
+            let mut fits = true;
+            if target.machine.is_some() {
+                let run = measure_run(paths, target, &path, &image)?;
+                values.extend(run.values);
+                if let Some(failure) = run.failure {
+                    failures.push(format!("{} {}: {failure}", target.triple, config.key()));
+                }
+                fits = run.does_not_fit.is_none();
+            }
+            values.insert("fits".into(), json!(fits));
+            rows.push(row(target, config, &values));
+            entries.insert(config.key(), Value::Object(values));
+        }
+        targets.insert(target.triple.into(), Value::Object(entries));
+    }
+    Ok(Measured {
+        targets,
+        table: table(&rows),
+        failures,
+    })
+}
+
+/// One table row.
+fn row(target: &Target, config: &Config, v: &Map<String, Value>) -> Vec<String> {
+    let int = |k: &str| v.get(k).and_then(Value::as_u64);
+    let bytes = |k: &str| int(k).map_or("–".into(), |n| format!("{n} B"));
+    let count = |k: &str| int(k).map_or("–".into(), group);
+    let ratio = |k: &str| {
+        v.get(k)
+            .and_then(Value::as_f64)
+            .map_or("–".into(), |r| format!("{r:.2}"))
+    };
+    let n = match config.choice {
+        "360" => "360".to_string(),
+        choice => format!("{} ({choice})", config.n_theta),
+    };
+    let mut cells = vec![target.name.to_string(), format!("{0}²", config.side), n];
+    if v.get("fits") == Some(&Value::Bool(false)) {
+        let state = int("state").unwrap_or(0);
+        let note = format!(
+            "does not fit: state {state} B + stack > {} KiB RAM",
+            target.ram >> 10
+        );
+        cells.extend([note, "".into(), "".into(), "".into(), "".into()]);
+    } else {
+        let ram = match (int("state"), int("stack_estimate")) {
+            (Some(state), Some(stack)) => format!("{} B ({state} + {stack})", state + stack),
+            _ => "–".into(),
+        };
+        cells.extend([
+            count("instructions_estimate"),
+            ratio("instructions_per_vote"),
+            ratio("vote_loop_per_vote"),
+            count("instructions_reference"),
+            ram,
+        ]);
+    }
+    cells.extend([count("votes"), bytes("static_ram"), bytes("flash_library")]);
+    cells
+}
+
+/// Thousands separated by thin spaces.
+fn group(n: u64) -> String {
+    let digits = n.to_string();
+    let mut out = String::new();
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
+            out.push('\u{202f}');
+        }
+        out.push(c);
+    }
+    out
+}
+
+/// The Markdown table.
+fn table(rows: &[Vec<String>]) -> String {
+    let header = [
+        "target",
+        "grid",
+        "N_θ",
+        "instr. / estimate",
+        "instr. / vote",
+        "vote loop instr. / vote",
+        "instr. / reference",
+        "estimator RAM (state + stack)",
+        "votes",
+        "static RAM",
+        "library flash",
+    ];
+    let mut out = String::new();
+    let _ = writeln!(out, "| {} |", header.join(" | "));
+    let _ = writeln!(out, "|{}", "---|".repeat(header.len()));
+    for r in rows {
+        let _ = writeln!(out, "| {} |", r.join(" | "));
+    }
+    out
+}
+
+/// Compares `measured` with the committed `budget` body: every checked value
+/// may grow by at most [`TOLERANCE`], and a configuration that fitted must
+/// still fit. Returns the regressions.
+pub fn check(budget: &Value, measured: &Map<String, Value>) -> Vec<String> {
+    let mut regressions = Vec::new();
+    let Some(budget) = budget["targets"].as_object() else {
+        return vec!["budget file has no \"targets\"".into()];
+    };
+    for (triple, entries) in budget {
+        for (key, allowed) in entries.as_object().into_iter().flatten() {
+            let Some(now) = measured.get(triple).and_then(|t| t.get(key)) else {
+                regressions.push(format!("{triple} {key}: not measured any more"));
+                continue;
+            };
+            if allowed["fits"] == Value::Bool(true) && now["fits"] == Value::Bool(false) {
+                regressions.push(format!("{triple} {key}: no longer fits"));
+            }
+            for metric in CHECKED {
+                let (Some(limit), Some(value)) = (allowed[metric].as_f64(), now[metric].as_f64())
+                else {
+                    continue;
+                };
+                if value > limit * (1.0 + TOLERANCE) {
+                    regressions.push(format!(
+                        "{triple} {key}: {metric} {value} > {limit} + {:.0} %",
+                        TOLERANCE * 100.0
+                    ));
+                }
+            }
+        }
+    }
+    regressions
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn configs_cover_the_recommended_range() {
+        let c = configs();
+        assert!(c.iter().any(|c| c.side == 128 && c.n_theta == 360));
+        assert!(c
+            .iter()
+            .any(|c| c.side == 256 && c.n_theta == 256 && c.choice == "min"));
+        assert!(c.iter().all(|c| c.n_theta % 2 == 0));
+    }
+
+    #[test]
+    fn check_flags_growth_beyond_tolerance_only() {
+        let budget = json!({"targets": {"t": {"k": {"fits": true, "flash_library": 1000, "stack_estimate": 100}}}});
+        let ok = json!({"t": {"k": {"fits": true, "flash_library": 1099, "stack_estimate": 50}}});
+        assert!(check(&budget, ok.as_object().unwrap()).is_empty());
+        let bad =
+            json!({"t": {"k": {"fits": false, "flash_library": 1101, "stack_estimate": 100}}});
+        assert_eq!(check(&budget, bad.as_object().unwrap()).len(), 2);
+    }
+
+    #[test]
+    fn reads_the_stack_pointer_of_a_lockup() {
+        let dump = "qemu: fatal: Lockup\nR12=00000000 R13=1ffffd18 R14=fffffff9\n";
+        assert_eq!(crashed_stack_pointer(dump), Some(0x1fff_fd18));
+        assert_eq!(crashed_stack_pointer("nothing"), None);
+    }
+
+    #[test]
+    fn groups_thousands() {
+        assert_eq!(group(1234567), "1\u{202f}234\u{202f}567");
+        assert_eq!(group(12), "12");
+    }
+}

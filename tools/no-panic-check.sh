@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# Link-time panic-freedom check of the library (issue 7).
+#
+# Builds `tools/no-panic`, a bare-metal Cortex-M4F binary that calls every
+# public entry point of `hough-heading` on inputs the optimiser cannot see,
+# in release (LTO, one codegen unit, no overflow checks), and checks that no
+# panic path survived:
+#
+# 1. `--features strict`: the panic handler calls a symbol defined nowhere, so
+#    the link succeeds only if the optimiser removed every path to it. This is
+#    the check; it needs nothing beyond cargo and the target.
+# 2. If that link fails, the binary is built again with a plain handler and
+#    `tools/no-panic/panic_paths.py` lists every call from library code into
+#    the panic machinery, with its source line and the entry points reaching
+#    it (needs `llvm-objdump`, `llvm-nm`, `llvm-addr2line`: Debian's `llvm`).
+#
+# Usage: tools/no-panic-check.sh [--report-only]
+#   --report-only   list the panic paths but exit 0 (for a CI that only
+#                   reports until the remaining sites are removed)
+# Environment:
+#   NO_PANIC_OPT_LEVELS   release opt-levels to check, default "3" (the
+#                         crate's release profile); e.g. "3 s z".
+#   NO_PANIC_TARGET       default thumbv7em-none-eabihf.
+#
+# Exit status: 0 no panic path (or --report-only), 1 panic paths found,
+# 2 the checker itself failed to build for another reason.
+set -euo pipefail
+
+root="$(cd "$(dirname "$0")/.." && pwd)"
+manifest="$root/tools/no-panic/Cargo.toml"
+target="${NO_PANIC_TARGET:-thumbv7em-none-eabihf}"
+target_dir="$root/target/no-panic"
+report_only=0
+[[ "${1:-}" == "--report-only" ]] && report_only=1
+
+if ! rustup target list --installed 2>/dev/null | grep -qx "$target"; then
+    echo "no-panic-check: installing target $target"
+    rustup target add "$target"
+fi
+
+status=0
+for opt in ${NO_PANIC_OPT_LEVELS:-3}; do
+    export CARGO_PROFILE_RELEASE_OPT_LEVEL="$opt"
+    log="$target_dir/strict-$opt.log"
+    mkdir -p "$target_dir"
+    echo "no-panic-check: opt-level $opt, $target: strict link (panic handler undefined)"
+    if cargo build --quiet --release --locked --target "$target" --features strict \
+        --manifest-path "$manifest" --target-dir "$target_dir" >"$log" 2>&1; then
+        echo "no-panic-check: PASS at opt-level $opt: no panic path is reachable from any public entry point"
+        continue
+    fi
+    if ! grep -q "hough_heading_panic_path_reachable" "$log"; then
+        cat "$log" >&2
+        echo "no-panic-check: the checker failed to build (see above)" >&2
+        exit 2
+    fi
+    echo "no-panic-check: FAIL at opt-level $opt: panic paths remain; locating them"
+    status=1
+    cargo build --quiet --release --locked --target "$target" \
+        --manifest-path "$manifest" --target-dir "$target_dir"
+    python3 "$root/tools/no-panic/panic_paths.py" \
+        "$target_dir/$target/release/no-panic-check" "$root" || true
+done
+
+if [[ $status -ne 0 && $report_only -eq 1 ]]; then
+    echo "no-panic-check: --report-only: not failing"
+    exit 0
+fi
+exit $status

@@ -1,0 +1,334 @@
+//! Link-time panic-freedom check of `hough-heading` (issue 7).
+//!
+//! This bare-metal binary calls every public entry point of the library with
+//! inputs the optimiser cannot see (`core::hint::black_box`), for four
+//! estimator configurations. Each group of calls sits in its own
+//! `#[inline(never)]` function named `entry_*`, so a remaining panic path can
+//! be attributed to the entry point that reaches it.
+//!
+//! Built in release (LTO, one codegen unit, no overflow checks: the profile a
+//! firmware ships with), the binary contains a panic path only if some
+//! library code can still reach the panic handler. `tools/no-panic-check.sh`
+//! checks that in two ways:
+//!
+//! * with `--features strict` the panic handler calls a symbol that is
+//!   defined nowhere, so the link fails unless every panic path was removed
+//!   (the `panic-never` trick; needs no other tool);
+//! * without it, the binary links and the script walks its call graph
+//!   (`llvm-objdump`) to list each call into a panicking function from
+//!   library code, with the source line of the call (`llvm-addr2line`).
+//!
+//! The binary is never run: there is no vector table or memory layout.
+#![no_std]
+#![no_main]
+// The strict handler needs an `extern` call; the library itself forbids
+// unsafe code, this checker does not ship.
+#![allow(unsafe_code)]
+
+use core::hint::black_box;
+use hough_heading::{
+    fit_translation, match_profile, max_votes_per_bin, paper_asymmetry, range_percentile,
+    recommended_n_theta, rho_bins, row_words, vote_column, Accumulator, Angle, Column, ColumnShift,
+    ColumnStats, Correlation, Estimator, Grid, Mode, Peak, PeakKind, Prior, Raster, Reference,
+    Scan, ScanStats, Score, SensorOffset, Signature, Thresholds,
+};
+
+/// Any value of `T`, as far as the optimiser knows.
+fn opaque<T>(value: T) -> T {
+    black_box(value)
+}
+
+fn opaque_mode() -> Mode {
+    if opaque(false) {
+        Mode::Paper
+    } else {
+        Mode::Improved
+    }
+}
+
+fn opaque_kind() -> PeakKind {
+    if opaque(false) {
+        PeakKind::SingleBin
+    } else {
+        PeakKind::TwoBin
+    }
+}
+
+fn opaque_thresholds() -> Thresholds {
+    Thresholds {
+        rival_ratio: Score::from_bits(opaque(0)),
+        direction_margin: Score::from_bits(opaque(0)),
+        min_occupied: opaque(0),
+        max_shift_fraction: Score::from_bits(opaque(0)),
+    }
+}
+
+/// Every grid method.
+#[inline(never)]
+fn entry_grid<const W: usize, const H: usize, const RW: usize>() -> Grid<W, H, RW> {
+    let mut g = Grid::<W, H, RW>::from_words(opaque([[0u32; RW]; H]));
+    let _ = opaque(g.set(opaque(0), opaque(0)));
+    let _ = opaque(g.clear(opaque(0), opaque(0)));
+    opaque(g.get(opaque(0), opaque(0)));
+    let _ = opaque(g.set_cells(opaque([(0usize, 0usize); 8])));
+    let _ = opaque(g.set_point(opaque(0.0), opaque(0.0)));
+    opaque(g.occupied());
+    opaque(g.words());
+    if opaque(false) {
+        g.clear_all();
+    }
+    g
+}
+
+/// The estimator: references, estimates with and without a prior, the
+/// result's helpers.
+#[inline(never)]
+fn entry_estimator<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+>(
+    g1: &Grid<W, H, RW>,
+    g2: &Grid<W, H, RW>,
+) {
+    let mut e = Estimator::<W, H, RW, N, HALF, RHO>::new(opaque_mode());
+    if opaque(false) {
+        e = e.with_thresholds(opaque_thresholds());
+    }
+    let reference = e.reference(g1);
+    let estimate = e.estimate(&reference, g2);
+    opaque(estimate.half_turn.margin());
+    opaque(&estimate);
+    opaque(e.estimate_pair(g1, g2));
+    let prior = Prior {
+        alpha: Angle(opaque(0)),
+        sigma: Angle(opaque(0)),
+    };
+    opaque(e.estimate_with_prior(&reference, g2, opaque(Some(prior))));
+    opaque(e.current_signature());
+    opaque(e.mode());
+    opaque(Mode::peak_kind(opaque_mode()));
+}
+
+/// A stored reference: bytes in, bytes out, and an estimate against a
+/// reference read from arbitrary (checksummed) bytes.
+#[inline(never)]
+fn entry_reference_bytes<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+>(
+    bytes: &[u8],
+    grid: &Grid<W, H, RW>,
+) {
+    if let Ok(reference) = Reference::<W, H, HALF, RHO>::from_bytes(bytes) {
+        opaque(reference.signature());
+        opaque(reference.profiles());
+        opaque(reference.occupied());
+        let mut out = opaque([0u8; 64]);
+        let len = opaque(0usize).min(out.len());
+        let _ = opaque(reference.to_bytes(out.get_mut(..len).unwrap_or(&mut [])));
+        let mut e = Estimator::<W, H, RW, N, HALF, RHO>::new(opaque_mode());
+        opaque(e.estimate(&reference, grid));
+    }
+}
+
+/// Votes, the full accumulator and the signature.
+#[inline(never)]
+fn entry_votes<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+>(
+    grid: &Grid<W, H, RW>,
+) {
+    let mut column: Column<RHO> = opaque([0u16; RHO]);
+    vote_column::<W, H, RW, N, RHO>(grid, opaque(0), &mut column);
+    opaque(ColumnStats::of(&column, opaque_kind()));
+    let accumulator = Accumulator::<HALF, RHO>::vote::<W, H, RW, N>(grid);
+    opaque(accumulator.get(opaque(0), opaque(0)));
+    opaque(accumulator.half_column(opaque(0)));
+    opaque(accumulator.n_theta());
+    let signature = Signature::<HALF>::from_accumulator(&accumulator, opaque_kind());
+    opaque(signature.peak(opaque(0)));
+    opaque(signature.asymmetry(opaque(0)));
+    opaque(signature.kind());
+    opaque(signature.peaks());
+    opaque(signature.asymmetries());
+}
+
+/// Correlation, direction tests and the translation fit on arbitrary data.
+#[inline(never)]
+fn entry_matching<const HALF: usize, const RHO: usize>() {
+    let d1 = opaque([0u16; HALF]);
+    let d2 = opaque([0u16; HALF]);
+    let c = Correlation::of(&d1, &d2);
+    if let Some(best) = c.best() {
+        opaque(c.score(best));
+        opaque(best.offset_q16());
+    }
+    opaque(c.rival(opaque(0)));
+    opaque(
+        Peak {
+            shift: opaque(0),
+            before: opaque(0),
+            value: opaque(0),
+            after: opaque(0),
+        }
+        .offset_q16(),
+    );
+    let s1 = opaque(Signature::<HALF>::empty(PeakKind::SingleBin));
+    let s2 = opaque(Signature::<HALF>::empty(PeakKind::SingleBin));
+    opaque(paper_asymmetry(&s1, &s2, opaque(0)));
+    let profile = opaque([0u8; RHO]);
+    let column = opaque([0u16; RHO]);
+    opaque(match_profile(&profile, &column, opaque(0), opaque(false)));
+}
+
+#[inline(never)]
+fn entry_translation() {
+    let shift = ColumnShift {
+        normal_q15: (opaque(0), opaque(0)),
+        shift_q16: opaque(0),
+        weight_q16: opaque(0),
+    };
+    let shifts = opaque([shift; 12]);
+    opaque(fit_translation(shifts.get(..opaque(0)).unwrap_or(&[])));
+}
+
+#[inline(never)]
+fn entry_angle() {
+    let a = Angle(opaque(0));
+    let b = Angle(opaque(0));
+    opaque(Angle::from_steps_q16(opaque(0), opaque(0)));
+    opaque(a.to_steps_q16(opaque(0)));
+    opaque(a.nearest_step(opaque(0)));
+    opaque(a.signed());
+    opaque(a.to_degrees());
+    opaque(Angle::from_degrees(opaque(0.0)));
+    opaque(a.to_radians());
+    opaque(a.distance(b));
+    opaque(a + b);
+    opaque(a - b);
+    opaque(-a);
+}
+
+/// The configuration helpers, called at run time with arbitrary sizes.
+#[inline(never)]
+fn entry_config() {
+    opaque(row_words(opaque(0)));
+    opaque(hough_heading::half_turn_steps(opaque(0)));
+    opaque(rho_bins(opaque(0), opaque(0)));
+    opaque(recommended_n_theta(opaque(0), opaque(0)));
+    opaque(max_votes_per_bin(opaque(0), opaque(0)));
+}
+
+/// Laser scans to grids and the estimate back to a motion.
+#[inline(never)]
+fn entry_scan<const W: usize, const H: usize, const RW: usize>(grid: &mut Grid<W, H, RW>) {
+    let ranges = opaque([0.0f32; 16]);
+    let scan = Scan {
+        ranges: ranges.get(..opaque(0)).unwrap_or(&[]),
+        angle_min: opaque(0.0),
+        angle_increment: opaque(0.0),
+        max_range: opaque(0.0),
+        offset: SensorOffset {
+            x: opaque(0.0),
+            y: opaque(0.0),
+            theta: opaque(0.0),
+        },
+    };
+    let scans = [scan, scan];
+    let some = scans.get(..opaque(0)).unwrap_or(&[]);
+    opaque(range_percentile(some, opaque(0)));
+    let raster = match opaque(0u8) {
+        0 => Raster::with_cell(opaque(0.0)),
+        1 => Raster::with_radius(opaque(0.0), opaque(0)),
+        _ => Raster::auto(some, opaque(0)),
+    };
+    if let Some(raster) = raster {
+        let raster = raster.connect(opaque(0.0)).clip_to_disc(opaque(false));
+        opaque(raster.cell());
+        let stats: ScanStats = raster.rasterize(&scan, grid);
+        opaque(stats.dropped());
+        opaque(raster.motion(Angle(opaque(0)), opaque(None)));
+    }
+}
+
+/// One estimator configuration: every generic entry point.
+fn configuration<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+>(
+    bytes: &[u8],
+) {
+    let mut g1 = entry_grid::<W, H, RW>();
+    let g2 = entry_grid::<W, H, RW>();
+    entry_estimator::<W, H, RW, N, HALF, RHO>(&g1, &g2);
+    entry_reference_bytes::<W, H, RW, N, HALF, RHO>(bytes, &g2);
+    entry_votes::<W, H, RW, N, HALF, RHO>(&g1);
+    entry_matching::<HALF, RHO>();
+    entry_scan::<W, H, RW>(&mut g1);
+}
+
+macro_rules! configuration {
+    ($w:expr, $h:expr, $n:expr, $bytes:expr) => {
+        configuration::<
+            $w,
+            $h,
+            { row_words($w) },
+            $n,
+            { hough_heading::half_turn_steps($n) },
+            { rho_bins($w, $h) },
+        >($bytes)
+    };
+}
+
+/// The entry point of the binary: calls every check once.
+#[no_mangle]
+pub extern "C" fn _start() -> ! {
+    static BYTES: [u8; 8192] = [0; 8192];
+    let bytes: &[u8] = opaque(&BYTES);
+    configuration!(64, 64, 128, bytes);
+    configuration!(128, 128, 360, bytes);
+    configuration!(160, 90, 512, bytes);
+    configuration!(256, 256, 720, bytes);
+    entry_translation();
+    entry_angle();
+    entry_config();
+    loop {
+        core::hint::spin_loop();
+    }
+}
+
+#[cfg(feature = "strict")]
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo<'_>) -> ! {
+    extern "Rust" {
+        /// Defined nowhere: linking fails if a panic path survived.
+        fn hough_heading_panic_path_reachable() -> !;
+    }
+    // SAFETY: never called in a build that links; see the module docs.
+    unsafe { hough_heading_panic_path_reachable() }
+}
+
+#[cfg(not(feature = "strict"))]
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo<'_>) -> ! {
+    loop {
+        core::hint::spin_loop();
+    }
+}
