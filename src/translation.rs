@@ -86,11 +86,8 @@ pub fn fit_translation(shifts: &[ColumnShift]) -> Option<Translation> {
 
 /// Q16.16 from `f32`, saturating; NaN → 0 (never panics).
 fn to_fixed(v: f32) -> I16F16 {
-    if v.is_nan() {
-        I16F16::ZERO
-    } else {
-        I16F16::saturating_from_num(v)
-    }
+    // `as` saturates and maps NaN to 0.
+    I16F16::from_bits((v * 65536.0) as i32)
 }
 
 fn weight(c: &ColumnShift) -> f32 {

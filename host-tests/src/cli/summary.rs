@@ -16,7 +16,7 @@
 //!   has no component along it, so its error there is the motion along the
 //!   corridor).
 //!
-//! Subsets: all pairs; `check.overlap_gt ≥ 0.5`; `|dθ_gt| > 90°`.
+//! Subsets: all pairs; `check.overlap_gt ≥ 0.5`; `|dθ_gt| > 90°`; both.
 
 use std::fmt::Write as _;
 
@@ -134,10 +134,13 @@ impl Summary {
              |---|---|---|---|---|---|---|---|---|---|---|---|\n",
         );
         type Filter = fn(&Row) -> bool;
-        let subsets: [(&str, Filter); 3] = [
+        let subsets: [(&str, Filter); 4] = [
             ("all", |_| true),
             ("overlap ≥ 0.5", |r| r.overlap.is_some_and(|o| o >= 0.5)),
             ("\\|dθ\\| > 90°", |r| r.dtheta_deg.abs() > 90.0),
+            ("\\|dθ\\| > 90°, overlap ≥ 0.5", |r| {
+                r.dtheta_deg.abs() > 90.0 && r.overlap.is_some_and(|o| o >= 0.5)
+            }),
         ];
         let methods: Vec<Method> = self
             .rows
