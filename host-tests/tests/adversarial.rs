@@ -1410,7 +1410,11 @@ fn bounds_asymmetry_is_exact_or_saturated() {
     for v in column[RHO / 2..].iter_mut() {
         *v = 4096;
     }
-    let stats = hough_heading::ColumnStats::of(&column, PeakKind::TwoBin);
+    let stats = hough_heading::ColumnStats::of(&column, PeakKind::SingleBin);
     assert_eq!(stats.asymmetry, i16::MAX);
+    assert_eq!(stats.peak, 4096);
+    // The two-bin reduction keeps the largest pair and leaves S(θ) at 0.
+    let stats = hough_heading::ColumnStats::of(&column, PeakKind::TwoBin);
+    assert_eq!(stats.asymmetry, 0);
     assert_eq!(stats.peak, 8192);
 }

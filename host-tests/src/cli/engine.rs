@@ -6,7 +6,7 @@
 
 use hough_heading::{
     half_turn_steps, rho_bins, row_words, Accumulator, Correlation, Estimate, Estimator, Grid,
-    Mode, Raster, Scan, ScanStats, Signature, Thresholds,
+    Mode, PeakKind, Raster, Scan, ScanStats, Signature, Thresholds,
 };
 
 use crate::reference::Image;
@@ -40,7 +40,8 @@ pub struct Figures {
     pub accumulators: [Vec<u16>; 2],
     /// `D(θ)` of both views over θ ∈ [0, π).
     pub signatures: [Vec<u16>; 2],
-    /// `S(θ)` of both views over θ ∈ [0, π), Q8.
+    /// `S(θ)` of both views over θ ∈ [0, π) (the paper's asymmetry map, in
+    /// the library's fixed-point units).
     pub asymmetries: [Vec<i32>; 2],
     /// Pearson correlation `r(k)` of `D1(θ)` and `D2(θ + k·Δθ)`, `k ∈ [0, half)`.
     pub correlation: Vec<f64>,
@@ -148,12 +149,15 @@ impl<
         for (i, grid) in self.grids.iter().enumerate() {
             // 256² × 720 is 368 KiB: keep it off the stack.
             let acc = Box::new(Accumulator::<HALF, RHO>::vote::<W, H, RW, N>(grid));
-            let sig = Signature::from_accumulator(&acc, kind);
             accumulators[i] = (0..HALF)
                 .flat_map(|k| acc.half_column(k).into_iter().flatten().copied())
                 .collect();
-            signatures[i] = sig.peaks().to_vec();
-            asymmetries[i] = sig.asymmetries().iter().map(|&v| i32::from(v)).collect();
+            signatures[i] = Signature::from_accumulator(&acc, kind).peaks().to_vec();
+            // The library computes S(θ) only for the paper's single-bin
+            // signature (the improved mode does not use it); the figure
+            // always shows it.
+            let paper = Signature::from_accumulator(&acc, PeakKind::SingleBin);
+            asymmetries[i] = paper.asymmetries().iter().map(|&v| i32::from(v)).collect();
         }
         let d1: [u16; HALF] = signature_array(&signatures[0]);
         let d2: [u16; HALF] = signature_array(&signatures[1]);
@@ -243,12 +247,4 @@ pub fn sizes() -> Vec<usize> {
     let mut s: Vec<usize> = CONFIGURATIONS.iter().map(|c| c.0).collect();
     s.dedup();
     s
-}
-
-/// The θ resolutions compiled in, ascending.
-pub fn n_thetas() -> Vec<usize> {
-    let mut n: Vec<usize> = CONFIGURATIONS.iter().map(|c| c.1).collect();
-    n.sort_unstable();
-    n.dedup();
-    n
 }

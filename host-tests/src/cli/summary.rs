@@ -116,16 +116,6 @@ impl Summary {
         self.errors += 1;
     }
 
-    /// Number of pairs added.
-    pub fn len(&self) -> usize {
-        self.rows.len()
-    }
-
-    /// Whether no pair was added.
-    pub fn is_empty(&self) -> bool {
-        self.rows.is_empty()
-    }
-
     /// The table (Markdown), one row per subset × method.
     pub fn table(&self) -> String {
         let mut out = String::new();
