@@ -31,7 +31,7 @@ bash .ci/install-qemu.sh
 rustup target add "${ARM_TARGETS[@]}" riscv32imac-unknown-none-elf
 
 section "host tools (tools/)"
-cargo fmt --manifest-path tools/Cargo.toml --all -- --check
+cargo fmt --manifest-path tools/Cargo.toml -p qemu-icount -p budgets -- --check
 cargo build --manifest-path tools/Cargo.toml --target-dir target/tools
 cargo test --manifest-path tools/Cargo.toml --target-dir target/tools
 budgets=target/tools/debug/budgets

@@ -101,7 +101,7 @@ pub struct EstimatorArgs {
     #[arg(long, value_name = "RATIO")]
     pub rival_ratio: Option<f64>,
     /// Tuning: flag `ambiguous_direction` when the α vs α + 180° margin is
-    /// below this (library default 0.05).
+    /// below this (library default 0.10).
     #[arg(long, value_name = "MARGIN")]
     pub direction_margin: Option<f64>,
     /// Tuning: largest translation the profile test searches, as a fraction
@@ -189,9 +189,10 @@ pub struct ScanGridArgs {
     #[arg(long)]
     pub cell: Option<f32>,
     /// Also draw segments between neighbouring beams at most this far apart
-    /// (metres).
-    #[arg(long, value_name = "METRES")]
-    pub connect: Option<f32>,
+    /// (metres); 0 draws one cell per beam. The default 0.3 m was measured
+    /// best on the real scan pairs (README, "Real lidar data").
+    #[arg(long, value_name = "METRES", default_value_t = 0.3)]
+    pub connect: f32,
     /// Keep only the disc inscribed in the grid.
     #[arg(long)]
     pub disc: bool,
@@ -206,7 +207,7 @@ impl ScanGridArgs {
         }
         Ok(RasterOptions {
             cell: self.cell,
-            connect: self.connect,
+            connect: (self.connect > 0.0).then_some(self.connect),
             disc: self.disc,
         })
     }
@@ -659,7 +660,7 @@ fn scans_command(args: &ScansArgs) -> Result<usize, Fatal> {
             args.pairs.display(),
             args.grid.size,
             args.estimator.n_theta,
-            if args.grid.connect.is_some() {
+            if args.grid.connect > 0.0 {
                 ", segments"
             } else {
                 ""
