@@ -265,9 +265,12 @@ impl Raster {
         if length_sq > max_gap * max_gap {
             return 0;
         }
-        // Steps of at most half a cell: n = ceil(|ab| / (cell/2)), bounded by
-        // the gap test above.
-        let steps = (sqrt(length_sq) * 2.0 / self.cell) as u32 + 1;
+        // Steps of at most half a cell: n = ceil(|ab| / (cell/2)), at most
+        // 4·(W + H) (twice the grid's perimeter in half cells: a longer
+        // segment is drawn sparser, and the work stays bounded whatever
+        // `cell` and `max_gap` are). `as` saturates.
+        let limit = 4 * (W + H) as u32;
+        let steps = ((sqrt(length_sq) * 2.0 / self.cell) as u32).min(limit) + 1;
         let mut added = 0u32;
         for j in 1..steps {
             let f = j as f32 / steps as f32;

@@ -15,7 +15,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::reference::Image;
-use crate::scene::{render_pair, Damage, Pair, SceneKind, Transform};
+use crate::scene::{render_pair, Damage, Pair, Point, Scene, SceneKind, Segment, Transform};
 
 /// Gross failure: error above this, degrees (full circle).
 pub const GROSS_DEG: f64 = 5.0;
@@ -126,6 +126,21 @@ pub fn trial_pair_independent(
         fit_radius_px: first.fit_radius_px,
     };
     (transform, pair)
+}
+
+/// A corridor whose two walls cross the whole image: segments three
+/// unit-disc radii long at `y = ±w`, `w ∈ [0.15, 0.4)`, no doors, so after
+/// fitting they are clipped by the image border in both views and nothing
+/// shows the shift along them (unlike [`crate::scene::corridor`], whose wall
+/// ends and doors lie inside the image and make the translation observable).
+pub fn wall_to_wall_corridor<R: Rng + ?Sized>(rng: &mut R) -> Scene {
+    let w = rng.gen_range(0.15..0.4);
+    Scene {
+        segments: vec![
+            Segment::new(Point::new(-3.0, w), Point::new(3.0, w)),
+            Segment::new(Point::new(-3.0, -w), Point::new(3.0, -w)),
+        ],
+    }
 }
 
 /// A seed for trial `index` of the row identified by `row` (any stable

@@ -439,11 +439,10 @@ fn scan_pair_batch_keeps_going() {
 }
 
 /// A pair whose readings are all dropped (NaN written as `null`, negative,
-/// beyond `max_range`) comes back `no_structure` with no word on why; the
-/// output should name the problem (e.g. the rasterization counts).
+/// beyond `max_range`) comes back `no_structure`, and the output says why
+/// (the dropped beams by reason).
 #[test]
-#[ignore = "finding B1: dropped readings are not reported"]
-fn finding_dropped_readings_are_reported() {
+fn dropped_readings_are_reported() {
     let line = format!(
         "{{\"scan1\":{},\"scan2\":{}}}\n",
         scan(360, |i| format!("-{i}")),
@@ -464,8 +463,7 @@ fn finding_dropped_readings_are_reported() {
 /// overflows (`Raster::connect`, finding F9 of `adversarial.rs`): a panic in
 /// the test build of the tool.
 #[test]
-#[ignore = "finding F9 via the CLI: --cell 1e-30 --connect 1e30 panics"]
-fn finding_connect_with_tiny_cells_does_not_panic() {
+fn connect_with_tiny_cells_does_not_panic() {
     let line = format!(
         "{{\"scan1\":{},\"scan2\":{}}}\n",
         scan(360, room),

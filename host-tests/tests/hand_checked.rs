@@ -7,13 +7,13 @@
 //! 128`, so bin `b` holds `ρ = b − 64`. Only θ ∈ [0°, 180°) is voted; the
 //! other half is the mirror `A(θ + 180°, b) = A(θ, 128 − b)`.
 
+use host_tests::eval::{grid_from_image, image_from_grid};
+use host_tests::reference::{self as fref};
+use host_tests::scene::rotate_image;
 use hough_heading::{
     estimator, grid, max_votes_per_bin, rho_bins, Accumulator, Angle, Estimator, Mode, PeakKind,
     Signature, Status,
 };
-use host_tests::eval::{grid_from_image, image_from_grid};
-use host_tests::reference::{self as fref};
-use host_tests::scene::rotate_image;
 
 type G = grid!(64, 64);
 type E = estimator!(64, 64, 360);
@@ -77,7 +77,10 @@ fn single_line() {
 
     for mode in [Mode::Paper, Mode::Improved] {
         let r = E::new(mode).estimate_pair(&g, &g);
-        assert!(near(r.alpha, 0.0) || near(r.alpha, 180.0), "{mode:?}: {r:?}");
+        assert!(
+            near(r.alpha, 0.0) || near(r.alpha, 180.0),
+            "{mode:?}: {r:?}"
+        );
         if mode == Mode::Improved {
             assert_eq!(r.status, Status::AmbiguousDirection, "{r:?}");
             assert!(r.candidates.iter().any(|c| near(c.alpha, 0.0)));
@@ -114,16 +117,26 @@ fn square() {
     assert_eq!((single.peak(0), single.peak(90)), (20, 20));
     assert!(single.peak(45) <= 8, "D(45°) = {}", single.peak(45));
     for k in 0..90 {
-        assert_eq!(single.peak(k), single.peak(k + 90), "quarter-turn symmetry at {k}°");
+        assert_eq!(
+            single.peak(k),
+            single.peak(k + 90),
+            "quarter-turn symmetry at {k}°"
+        );
     }
     assert_eq!(signature(&g, PeakKind::TwoBin).peak(0), 22);
     let acc = votes(&g);
-    assert_eq!((acc.get(0, 55), acc.get(0, 74), acc.get(0, 60)), (20, 20, 2));
+    assert_eq!(
+        (acc.get(0, 55), acc.get(0, 74), acc.get(0, 60)),
+        (20, 20, 2)
+    );
 
     for mode in [Mode::Paper, Mode::Improved] {
         let r = E::new(mode).estimate_pair(&g, &g);
         assert!(r.status != Status::Confident, "{mode:?}: {r:?}");
-        assert_eq!(r.rival, r.correlation, "{mode:?}: equal peaks at 0° and 90°");
+        assert_eq!(
+            r.rival, r.correlation,
+            "{mode:?}: equal peaks at 0° and 90°"
+        );
         if mode == Mode::Improved {
             assert_eq!(r.status, Status::AmbiguousDirection);
             for quarter in [0.0, 90.0, 180.0, 270.0] {

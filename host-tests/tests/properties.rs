@@ -20,10 +20,11 @@
 
 use host_tests::eval::{
     angle_error_deg, axis_error_deg, grid_from_image, trial_pair, unobservable_direction,
+    wall_to_wall_corridor,
 };
 use host_tests::reference::Image;
 use host_tests::scene::{
-    render_pair, rotate_image, Damage, Point, Scene, SceneKind, Segment, Transform,
+    render_pair, rotate_image, Damage, SceneKind, Transform,
 };
 use hough_heading::{
     rho_bins, row_words, Accumulator, Angle, Correlation, Error, Estimate, Estimator, Grid,
@@ -607,60 +608,71 @@ configuration!(c64x64_n128, 64, 64, 128);
 configuration!(c128x128_n360, 128, 128, 360);
 configuration!(c96x64_n512, 96, 64, 512);
 
-/// A corridor whose walls cross the whole image (no ends, no doors): the
-/// shift along the walls is not observable, and the estimate must say so with
-/// a unit vector along the walls.
-///
-/// Ignored: fails with the current library (about 3 in 4 such corridors come
-/// back with an "observable" translation whose along-wall component is set by
-/// the weak profile columns, and when a direction is reported it is 8–18° off
-/// the walls and not of unit length — see host-tests/ACCURACY.md, section
-/// "Translation"). Run with `cargo test -- --ignored`.
-#[test]
-#[ignore = "library reports most wall-to-wall corridors as observable (ACCURACY.md)"]
-fn corridor_reports_the_unobservable_direction() {
+/// Estimates for corridors whose walls cross the whole image (no ends, no
+/// doors, `eval::wall_to_wall_corridor`), 128², clean, random rotation and
+/// translation, scale 1.
+fn wall_to_wall_corridors() -> Vec<(Transform, Estimate)> {
     type E = hough_heading::estimator!(128, 128, 360);
     type G = hough_heading::grid!(128, 128);
-    let mut failures = Vec::new();
-    for seed in 0..24u64 {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let w = rng.gen_range(0.15..0.4);
-        // Walls from x = −3 to 3 (three disc radii): clipped by the image.
-        let scene = Scene {
-            segments: vec![
-                Segment::new(Point::new(-3.0, w), Point::new(3.0, w)),
-                Segment::new(Point::new(-3.0, -w), Point::new(3.0, -w)),
-            ],
-        };
-        let truth = Transform {
-            alpha_rad: rng.gen_range(0.0..TAU),
-            tx: rng.gen_range(-5.0..5.0),
-            ty: rng.gen_range(-5.0..5.0),
-            scale: 1.0,
-        };
-        let pair = render_pair(&scene, &truth, &Damage::CLEAN, 128, 128, seed);
-        let g1: G = grid_from_image(&pair.i1.image);
-        let g2: G = grid_from_image(&pair.i2.image);
-        let e = E::new(Mode::Improved).estimate_pair(&g1, &g2);
-        let along = truth.alpha_rad.sin_cos();
-        let ok = e.status == Status::AmbiguousDirection
-            && e.translation.is_some_and(|t| {
-                t.unobservable.is_some_and(|(ux, uy)| {
-                    let (ux, uy) = (ux.to_num::<f64>(), uy.to_num::<f64>());
-                    let (nx, ny) = unobservable_direction(ux, uy);
-                    (ux.hypot(uy) - 1.0).abs() < 0.01
-                        && (nx * along.1 + ny * along.0).abs() > 5f64.to_radians().cos()
-                })
-            });
-        if !ok {
-            failures.push((seed, e.translation));
-        }
+    (0..24u64)
+        .map(|seed| {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let scene = wall_to_wall_corridor(&mut rng);
+            let truth = Transform {
+                alpha_rad: rng.gen_range(0.0..TAU),
+                tx: rng.gen_range(-5.0..5.0),
+                ty: rng.gen_range(-5.0..5.0),
+                scale: 1.0,
+            };
+            let pair = render_pair(&scene, &truth, &Damage::CLEAN, 128, 128, seed);
+            let g1: G = grid_from_image(&pair.i1.image);
+            let g2: G = grid_from_image(&pair.i2.image);
+            (truth, E::new(Mode::Improved).estimate_pair(&g1, &g2))
+        })
+        .collect()
+}
+
+/// A corridor whose walls cross the whole image: the shift along the walls is
+/// not observable, and the estimate says so (`AmbiguousDirection` too: the
+/// corridor is its own half turn); the translation across the walls is right
+/// within 1 px.
+#[test]
+fn corridor_reports_an_unobservable_direction() {
+    for (seed, (truth, e)) in wall_to_wall_corridors().into_iter().enumerate() {
+        assert_eq!(e.status, Status::AmbiguousDirection, "seed {seed}");
+        let t = e.translation.expect("a translation");
+        assert!(t.unobservable.is_some(), "seed {seed}: {t:?}");
+        let (s, c) = truth.alpha_rad.sin_cos();
+        let (dx, dy) = (t.x.to_num::<f64>() - truth.tx, t.y.to_num::<f64>() - truth.ty);
+        let across = (dx * -s + dy * c).abs();
+        assert!(across <= 1.0, "seed {seed}: {across} px across the walls");
     }
-    assert!(
-        failures.is_empty(),
-        "{} of 24: {failures:?}",
-        failures.len()
-    );
+}
+
+/// The reported direction is a unit vector along the walls (within 1°: the
+/// normal of the strongest column is quantized to the θ step).
+///
+/// Ignored: fails with the current library, which computes the eigenvector
+/// and normalises it with `micromath`'s approximate `sqrt` (about 5 % error):
+/// norms of 0.97–0.99, and directions off the walls by 0.6° median, 4.4° at
+/// the 90th percentile, up to 53° when the walls are near an axis (200
+/// corridors). With two Newton steps after `micromath`'s estimate the same
+/// corridors give ≤ 0.53° (ACCURACY.md). Run with `cargo test -- --ignored`.
+#[test]
+#[ignore = "translation.rs normalises with micromath's ~5 % sqrt (ACCURACY.md)"]
+fn corridor_unobservable_direction_is_a_unit_vector_along_the_walls() {
+    for (seed, (truth, e)) in wall_to_wall_corridors().into_iter().enumerate() {
+        let (ux, uy) = e
+            .translation
+            .and_then(|t| t.unobservable)
+            .expect("unobservable direction reported");
+        let (ux, uy) = (ux.to_num::<f64>(), uy.to_num::<f64>());
+        let norm = ux.hypot(uy);
+        assert!((norm - 1.0).abs() < 1e-3, "seed {seed}: |u| = {norm}");
+        let (s, c) = truth.alpha_rad.sin_cos();
+        let off = ((ux * c + uy * s) / norm).abs().min(1.0).acos().to_degrees();
+        assert!(off <= 1.0, "seed {seed}: {off:.2}° off the walls");
+    }
 }
 
 /// The image helpers the properties rely on.

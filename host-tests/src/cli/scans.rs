@@ -210,9 +210,37 @@ pub struct OutputLine {
     /// observable (a corridor), when so.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub unobservable: Option<[f64; 2]>,
+    /// Beams of each scan dropped by reason, when any was (so a
+    /// `no_structure` from unusable readings says why).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dropped: Option<[DroppedBeams; 2]>,
     /// Why the line failed.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
+}
+
+/// The beams of one scan that set no cell, by reason.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct DroppedBeams {
+    /// At or beyond `max_range` (no return).
+    pub no_return: u32,
+    /// NaN or infinite.
+    pub not_finite: u32,
+    /// Zero or negative.
+    pub non_positive: u32,
+    /// Outside the grid's window.
+    pub outside: u32,
+}
+
+impl DroppedBeams {
+    fn of(stats: &ScanStats) -> Self {
+        Self {
+            no_return: stats.no_return,
+            not_finite: stats.not_finite,
+            non_positive: stats.non_positive,
+            outside: stats.outside,
+        }
+    }
 }
 
 impl OutputLine {
@@ -242,6 +270,11 @@ impl OutputLine {
             rival: Some(round(e.rival.to_num::<f64>(), 4)),
             cell_m: Some(round(f64::from(p.cell), 6)),
             unobservable,
+            dropped: p
+                .stats
+                .iter()
+                .any(|s| s.dropped() > 0)
+                .then(|| p.stats.each_ref().map(DroppedBeams::of)),
             error: None,
         }
     }
@@ -260,6 +293,7 @@ impl OutputLine {
             rival: None,
             cell_m: None,
             unobservable: None,
+            dropped: None,
             error: Some(message),
         }
     }

@@ -207,7 +207,8 @@ fn table_page(table: &str) -> String {
          - *instr. / estimate*: guest instructions of `Estimator::estimate` against a prepared reference, \
          counted exactly by the `qemu-icount` TCG plugin (`tools/qemu-icount`) between two marker \
          functions, minus the markers' own cost. *instr. / vote*: that divided by the votes (occupied \
-         cells × N_θ/2). *vote loop*: `vote_column` alone over θ ∈ [0, π). *instr. / reference*: \
+         cells × N_θ/2). *vote loop*: the estimator's vote primitive alone (`vote_column_pair` over \
+         θ ∈ [0, π), no column reductions). *instr. / reference*: \
          `Estimator::reference`.\n\
          - *estimator RAM*: `size_of` the estimator and the reference, plus the peak stack of the estimate \
          call: the lowest stack address written during it (the plugin watches every store), below the \
