@@ -63,19 +63,24 @@ pub fn match_profile<const RHO: usize>(
     max_shift: usize,
     mirrored: bool,
 ) -> ProfileMatch {
-    let mut p = [0u8; RHO];
-    if mirrored {
-        // P'[b] = P[RHO − b]; bin 0 is never voted, so it maps to itself.
-        for (b, v) in p.iter_mut().enumerate() {
-            *v = profile[(RHO - b) % RHO];
-        }
-    } else {
-        p = *profile;
-    }
-    let (Some((pl, pu)), Some((ql, qu))) = (support(&p), support(column)) else {
+    // The mirrored profile P'[b] = P[RHO − b] is read backwards in place (no
+    // copy on the stack); bin 0 is never voted and counts as empty.
+    let Some(profile_body) = profile.get(1..) else {
         return ProfileMatch::default();
     };
-    let p_sq: u64 = p.iter().map(|&v| u64::from(v) * u64::from(v)).sum();
+    let (Some((body_l, body_u)), Some((ql, qu))) = (support(profile_body), support(column)) else {
+        return ProfileMatch::default();
+    };
+    // Support of P (or P') in bins.
+    let (pl, pu) = if mirrored {
+        (RHO - 1 - body_u, RHO - 1 - body_l)
+    } else {
+        (body_l + 1, body_u + 1)
+    };
+    let p_sq: u64 = profile_body
+        .iter()
+        .map(|&v| u64::from(v) * u64::from(v))
+        .sum();
     let q_sq: u64 = column.iter().map(|&v| u64::from(v) * u64::from(v)).sum();
     let norm = isqrt_u128(u128::from(p_sq) * u128::from(q_sq));
     if norm == 0 {
@@ -92,13 +97,30 @@ pub fn match_profile<const RHO: usize>(
         }
         let (lo, hi) = (lo as usize, hi as usize);
         let q_lo = (lo as isize + s) as usize;
-        let (Some(a), Some(b)) = (p.get(lo..=hi), column.get(q_lo..=q_lo + (hi - lo))) else {
+        let Some(q) = column.get(q_lo..=q_lo + (hi - lo)) else {
             return 0;
         };
-        a.iter()
-            .zip(b)
-            .map(|(&x, &y)| u64::from(x) * u64::from(y))
-            .sum()
+        if mirrored {
+            // P'[lo..=hi] is P[RHO − hi ..= RHO − lo] reversed.
+            match profile.get(RHO - hi..=RHO - lo) {
+                Some(p) => p
+                    .iter()
+                    .rev()
+                    .zip(q)
+                    .map(|(&x, &y)| u64::from(x) * u64::from(y))
+                    .sum(),
+                None => 0,
+            }
+        } else {
+            match profile.get(lo..=hi) {
+                Some(p) => p
+                    .iter()
+                    .zip(q)
+                    .map(|(&x, &y)| u64::from(x) * u64::from(y))
+                    .sum(),
+                None => 0,
+            }
+        }
     };
     // Shifts that can overlap at all.
     let s_min = (ql as isize - pu as isize).max(-max_shift);

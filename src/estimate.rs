@@ -297,7 +297,8 @@ impl<
             return Estimate::no_structure();
         }
         let kind = reference.signature().kind();
-        self.current = Signature::stream::<W, H, RW, N, RHO>(grid, kind, &mut self.columns);
+        self.current
+            .restream::<W, H, RW, N, RHO>(grid, kind, &mut self.columns);
         let correlation = Correlation::of(reference.signature().peaks(), self.current.peaks());
         let Some(best) = correlation.best().copied() else {
             return Estimate::no_structure();

@@ -125,24 +125,42 @@ impl<const HALF: usize> Signature<HALF> {
         kind: PeakKind,
         columns: &mut [Column<RHO>; 2],
     ) -> Self {
-        const { crate::config::check_config(W, H, RW, N, HALF, RHO) };
         let mut signature = Self::empty(kind);
+        signature.restream::<W, H, RW, N, RHO>(grid, kind, columns);
+        signature
+    }
+
+    /// [`Self::stream`] in place: overwrites this signature, so no second
+    /// copy is ever on the stack (the estimator's loop uses this).
+    pub fn restream<
+        const W: usize,
+        const H: usize,
+        const RW: usize,
+        const N: usize,
+        const RHO: usize,
+    >(
+        &mut self,
+        grid: &Grid<W, H, RW>,
+        kind: PeakKind,
+        columns: &mut [Column<RHO>; 2],
+    ) {
+        const { crate::config::check_config(W, H, RW, N, HALF, RHO) };
+        self.kind = kind;
         let [first, second] = columns;
         let mut k = 0;
         while k + 1 < HALF {
             first.fill(0);
             second.fill(0);
             vote_column_pair::<W, H, RW, N, RHO>(grid, k, first, second);
-            signature.set(k, ColumnStats::of(first, kind));
-            signature.set(k + 1, ColumnStats::of(second, kind));
+            self.set(k, ColumnStats::of(first, kind));
+            self.set(k + 1, ColumnStats::of(second, kind));
             k += 2;
         }
         if k < HALF {
             first.fill(0);
             vote_column::<W, H, RW, N, RHO>(grid, k, first);
-            signature.set(k, ColumnStats::of(first, kind));
+            self.set(k, ColumnStats::of(first, kind));
         }
-        signature
     }
 
     /// The signature of a full accumulator; bit-identical to [`Self::stream`].
