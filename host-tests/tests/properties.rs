@@ -23,9 +23,7 @@ use host_tests::eval::{
     wall_to_wall_corridor,
 };
 use host_tests::reference::Image;
-use host_tests::scene::{
-    render_pair, rotate_image, Damage, SceneKind, Transform,
-};
+use host_tests::scene::{render_pair, rotate_image, Damage, SceneKind, Transform};
 use hough_heading::{
     rho_bins, row_words, Accumulator, Angle, Correlation, Error, Estimate, Estimator, Grid,
     HalfTurn, Mode, PeakKind, Prior, Reference, Score, Signature, Status,
@@ -96,7 +94,7 @@ fn check_exact_turns<
     let (_, pair) = trial_pair(kind, damage, W, H, true, seed);
     let image = &pair.i1.image;
     let g1 = grid_from_image::<W, H, RW>(image);
-    let quarters: &[usize] = if W == H && N % 4 == 0 {
+    let quarters: &[usize] = if W == H && N.is_multiple_of(4) {
         &[0, 1, 2, 3]
     } else {
         &[0, 2]
@@ -288,10 +286,17 @@ fn check_half_turned_input<
             d.min(HALF - d) < separation
                 && (correlation.score(&best) - correlation.score(p)) < Score::from_num(0.001)
         });
-        let tolerance = if split { separation as f64 * step } else { step };
+        let tolerance = if split {
+            separation as f64 * step
+        } else {
+            step
+        };
         let expected = a.alpha + Angle::HALF_TURN;
         let axis = distance_deg(b.alpha, expected).min(distance_deg(b.alpha, a.alpha));
-        prop_assert!(axis <= tolerance, "{mode:?}: axis moved by {axis}° (split peak: {split})");
+        prop_assert!(
+            axis <= tolerance,
+            "{mode:?}: axis moved by {axis}° (split peak: {split})"
+        );
         if a.status != Status::AmbiguousDirection && b.status != Status::AmbiguousDirection {
             let error = distance_deg(b.alpha, expected);
             prop_assert!(
@@ -643,23 +648,21 @@ fn corridor_reports_an_unobservable_direction() {
         let t = e.translation.expect("a translation");
         assert!(t.unobservable.is_some(), "seed {seed}: {t:?}");
         let (s, c) = truth.alpha_rad.sin_cos();
-        let (dx, dy) = (t.x.to_num::<f64>() - truth.tx, t.y.to_num::<f64>() - truth.ty);
+        let (dx, dy) = (
+            t.x.to_num::<f64>() - truth.tx,
+            t.y.to_num::<f64>() - truth.ty,
+        );
         let across = (dx * -s + dy * c).abs();
         assert!(across <= 1.0, "seed {seed}: {across} px across the walls");
     }
 }
 
 /// The reported direction is a unit vector along the walls (within 1°: the
-/// normal of the strongest column is quantized to the θ step).
-///
-/// Ignored: fails with the current library, which computes the eigenvector
-/// and normalises it with `micromath`'s approximate `sqrt` (about 5 % error):
-/// norms of 0.97–0.99, and directions off the walls by 0.6° median, 4.4° at
-/// the 90th percentile, up to 53° when the walls are near an axis (200
-/// corridors). With two Newton steps after `micromath`'s estimate the same
-/// corridors give ≤ 0.53° (ACCURACY.md). Run with `cargo test -- --ignored`.
+/// normal of the strongest column is quantized to the θ step). With
+/// `micromath`'s bare `sqrt` (about 5 % error) this failed: norms of
+/// 0.97–0.99 and directions up to 53° off; `translation.rs` now refines it
+/// with two Newton steps.
 #[test]
-#[ignore = "translation.rs normalises with micromath's ~5 % sqrt (ACCURACY.md)"]
 fn corridor_unobservable_direction_is_a_unit_vector_along_the_walls() {
     for (seed, (truth, e)) in wall_to_wall_corridors().into_iter().enumerate() {
         let (ux, uy) = e
@@ -670,7 +673,11 @@ fn corridor_unobservable_direction_is_a_unit_vector_along_the_walls() {
         let norm = ux.hypot(uy);
         assert!((norm - 1.0).abs() < 1e-3, "seed {seed}: |u| = {norm}");
         let (s, c) = truth.alpha_rad.sin_cos();
-        let off = ((ux * c + uy * s) / norm).abs().min(1.0).acos().to_degrees();
+        let off = ((ux * c + uy * s) / norm)
+            .abs()
+            .min(1.0)
+            .acos()
+            .to_degrees();
         assert!(off <= 1.0, "seed {seed}: {off:.2}° off the walls");
     }
 }
