@@ -21,10 +21,10 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::Criterion;
-use hough_heading::{half_turn_steps, rho_bins, row_words, Estimator, Grid, Mode};
 use host_tests::eval::{grid_from_image, trial_pair, trial_seed};
 use host_tests::reference::{self as fref, Image, SignatureKind};
 use host_tests::scene::{Damage, SceneKind};
+use hough_heading::{half_turn_steps, rho_bins, row_words, Estimator, Grid, Mode};
 
 const N: usize = 360;
 const HALF: usize = half_turn_steps(N);
@@ -75,7 +75,12 @@ impl<const W: usize, const RW: usize, const RHO: usize> Runner<W, RW, RHO> {
 
     fn reference(&self) {
         for (i1, i2) in &self.scenes.images {
-            black_box(fref::estimate(black_box(i1), black_box(i2), N, SignatureKind::Max));
+            black_box(fref::estimate(
+                black_box(i1),
+                black_box(i2),
+                N,
+                SignatureKind::Max,
+            ));
         }
     }
 
@@ -84,7 +89,9 @@ impl<const W: usize, const RW: usize, const RHO: usize> Runner<W, RW, RHO> {
         group.sample_size(10);
         group.warm_up_time(Duration::from_millis(500));
         group.measurement_time(Duration::from_secs(2));
-        group.bench_function("library_improved", |b| b.iter(|| self.library(Mode::Improved)));
+        group.bench_function("library_improved", |b| {
+            b.iter(|| self.library(Mode::Improved))
+        });
         group.bench_function("library_paper", |b| b.iter(|| self.library(Mode::Paper)));
         group.bench_function("reference_f64", |b| b.iter(|| self.reference()));
         group.finish();
@@ -133,8 +140,9 @@ fn main() {
     r128.bench(&mut c);
     r256.bench(&mut c);
     c.final_summary();
-    // `cargo test --benches` runs this binary with `--test`: skip the table.
-    if std::env::args().any(|a| a == "--test" || a == "--list") {
+    // `cargo bench` passes `--bench`; `cargo test --benches` does not (and
+    // criterion then runs each benchmark once as a test): skip the table.
+    if !std::env::args().any(|a| a == "--bench") {
         return;
     }
     println!("\nMean time per estimate (ms), N_THETA = {N}, random polygons, moderate damage:\n");
