@@ -19,10 +19,9 @@
 //!   undecidable and the status must not be `Confident`;
 //! * any `Confident` answer must be within a few θ steps of the truth.
 //!
-//! The improved mode meets these on the scenes checked by the non-ignored
-//! tests. The `finding_*` tests are `#[ignore]`d: each states the behaviour
-//! that should hold and currently does not (see `host-tests/GUARANTEES.md`);
-//! run them with `cargo test --test adversarial -- --ignored`.
+//! The improved mode meets these on every scene checked here. The tests at
+//! the end began as findings (panics, overflows, symmetric scenes reported
+//! `Confident`) and now hold; the README's "Guarantees" section sums them up.
 
 use hough_heading::{
     half_turn_steps, max_votes_per_bin, rho_bins, row_words, vote_column, Accumulator, Angle,
@@ -1053,8 +1052,7 @@ fn reference_bytes_are_checked() {
 }
 
 // ---------------------------------------------------------------------------
-// Findings: behaviour that should hold and does not yet (ignored; see
-// host-tests/GUARANTEES.md). Run with `-- --ignored`.
+// Former findings, fixed: each test states the behaviour that failed before.
 
 /// Centrally symmetric scenes are never `Confident` in improved mode (the
 /// paper's asymmetry test has no notion of an ambiguous direction: in paper
