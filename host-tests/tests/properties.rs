@@ -18,6 +18,8 @@
 //! then within the resolution `Δθ + atan(1/r)` (`r` the scene radius in
 //! pixels, see `reference_agreement.rs`).
 
+mod common;
+
 use host_tests::eval::{
     angle_error_deg, axis_error_deg, grid_from_image, trial_pair, unobservable_direction,
     wall_to_wall_corridor,
@@ -29,24 +31,14 @@ use hough_heading::{
     HalfTurn, Mode, PeakKind, Prior, Reference, Score, Signature, Status,
 };
 use proptest::prelude::*;
-use proptest::test_runner::{RngSeed, TestCaseError};
+use proptest::test_runner::TestCaseError;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::TAU;
 
-/// 24 cases per property from a fixed seed (reproducible runs); `HH_CASES`
-/// and `HH_SEED` in the environment override them for longer local runs. No
-/// regression files are written into the source tree.
+/// Proptest settings of this file (see `common::proptest_config`).
 fn config() -> ProptestConfig {
-    fn env<T: std::str::FromStr>(name: &str) -> Option<T> {
-        std::env::var(name).ok().and_then(|v| v.parse().ok())
-    }
-    ProptestConfig {
-        cases: env("HH_CASES").unwrap_or(24),
-        rng_seed: RngSeed::Fixed(env("HH_SEED").unwrap_or(0x5052_4f50)),
-        failure_persistence: None,
-        ..ProptestConfig::default()
-    }
+    common::proptest_config(0x5052_4f50)
 }
 
 fn damage() -> impl Strategy<Value = Damage> {

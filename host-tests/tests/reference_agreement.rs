@@ -34,6 +34,8 @@
 //!    The improved mode meets the same bound, over the full circle unless it
 //!    reports `AmbiguousDirection`.
 
+mod common;
+
 use host_tests::eval::{angle_error_deg, axis_error_deg, grid_from_image, trial_pair};
 use host_tests::reference::{self as fref, Image, RhoTolerance, SignatureKind};
 use host_tests::scene::{Damage, SceneKind};
@@ -41,23 +43,13 @@ use hough_heading::{
     rho_bins, row_words, Accumulator, Estimator, Mode, PeakKind, Score, Signature, Status,
 };
 use proptest::prelude::*;
-use proptest::test_runner::{RngSeed, TestCaseError};
+use proptest::test_runner::TestCaseError;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-/// 24 cases per property from a fixed seed (reproducible runs); `HH_CASES`
-/// and `HH_SEED` in the environment override them for longer local runs. No
-/// regression files are written into the source tree.
+/// Proptest settings of this file (see `common::proptest_config`).
 fn config() -> ProptestConfig {
-    fn env<T: std::str::FromStr>(name: &str) -> Option<T> {
-        std::env::var(name).ok().and_then(|v| v.parse().ok())
-    }
-    ProptestConfig {
-        cases: env("HH_CASES").unwrap_or(24),
-        rng_seed: RngSeed::Fixed(env("HH_SEED").unwrap_or(0x4848_5245)),
-        failure_persistence: None,
-        ..ProptestConfig::default()
-    }
+    common::proptest_config(0x4848_5245)
 }
 
 fn scene_kind() -> impl Strategy<Value = SceneKind> {
