@@ -63,6 +63,19 @@ pub fn match_profile<const RHO: usize>(
     max_shift: usize,
     mirrored: bool,
 ) -> ProfileMatch {
+    match_profile_near(profile, column, 0, max_shift, mirrored)
+}
+
+/// [`match_profile`] over the shifts `|s − centre| ≤ radius` only (the scale
+/// search refines around shifts it already knows). Cost: at most
+/// `(2·radius + 1) × support` multiply-adds.
+pub fn match_profile_near<const RHO: usize>(
+    profile: &[u8; RHO],
+    column: &Column<RHO>,
+    centre: i32,
+    radius: usize,
+    mirrored: bool,
+) -> ProfileMatch {
     // The mirrored profile P'[b] = P[RHO − b] is read backwards in place (no
     // copy on the stack); bin 0 is never voted and counts as empty.
     let Some(profile_body) = profile.get(1..) else {
@@ -87,7 +100,8 @@ pub fn match_profile<const RHO: usize>(
         return ProfileMatch::default();
     }
     // No shift beyond the column can overlap anyway.
-    let max_shift = max_shift.min(RHO) as isize;
+    let radius = radius.min(RHO) as isize;
+    let centre = (centre as isize).clamp(-(RHO as isize), RHO as isize);
     let dot = |s: isize| -> u64 {
         // b ∈ [pl, pu] with b + s ∈ [ql, qu].
         let lo = (pl as isize).max(ql as isize - s);
@@ -123,8 +137,8 @@ pub fn match_profile<const RHO: usize>(
         }
     };
     // Shifts that can overlap at all.
-    let s_min = (ql as isize - pu as isize).max(-max_shift);
-    let s_max = (qu as isize - pl as isize).min(max_shift);
+    let s_min = (ql as isize - pu as isize).max(centre - radius);
+    let s_max = (qu as isize - pl as isize).min(centre + radius);
     let mut best = (0u64, 0isize);
     for s in s_min..=s_max {
         let d = dot(s);

@@ -19,6 +19,8 @@ pub enum Error {
     /// Stored bytes are not a reference of this configuration (wrong magic,
     /// version, sizes, mode or checksum).
     InvalidReference,
+    /// A scale range outside `0.5 ≤ min ≤ max ≤ 2`.
+    InvalidScaleRange,
 }
 
 impl core::fmt::Display for Error {
@@ -31,6 +33,7 @@ impl core::fmt::Display for Error {
                 write!(f, "buffer too small: {needed} bytes needed")
             }
             Error::InvalidReference => write!(f, "bytes are not a reference of this configuration"),
+            Error::InvalidScaleRange => write!(f, "scale range must satisfy 0.5 ≤ min ≤ max ≤ 2"),
         }
     }
 }

@@ -1,12 +1,13 @@
 //! The estimator: rotation (and translation) of image 2 relative to a
 //! reference, with status, confidence and candidates.
 
-use crate::accumulator::{vote_column, Column};
+use crate::accumulator::{vote_column_split, Column, UNIT_SCALE_Q16};
 use crate::correlation::{Correlation, Peak};
-use crate::direction::{match_profile, paper_asymmetry, ProfileMatch};
+use crate::direction::{match_profile, match_profile_near, paper_asymmetry, ProfileMatch};
 use crate::reference::{Reference, PROFILE_COLUMNS};
+use crate::scale::{self, ScaleRange, Window};
 use crate::signature::{PeakKind, Signature};
-use crate::translation::{fit_translation, ColumnShift, Translation};
+use crate::translation::{agreement_q16, fit_translation, ColumnShift, Translation};
 use crate::trig::TrigTable;
 use crate::{Angle, Grid, Score};
 use heapless::Vec;
@@ -219,6 +220,7 @@ pub struct Estimator<
 > {
     mode: Mode,
     thresholds: Thresholds,
+    scale: Option<ScaleRange>,
     columns: [Column<RHO>; 2],
     current: Signature<HALF>,
 }
@@ -238,6 +240,7 @@ impl<
         Self {
             mode,
             thresholds: Thresholds::DEFAULT,
+            scale: None,
             columns: [[0; RHO]; 2],
             current: Signature::empty(mode.peak_kind()),
         }
@@ -247,6 +250,20 @@ impl<
     pub const fn with_thresholds(mut self, thresholds: Thresholds) -> Self {
         self.thresholds = thresholds;
         self
+    }
+
+    /// Also estimates the scale `s` (improved mode), searching `range`;
+    /// without this `s` = 1 (the right model for scans of one sensor or a
+    /// camera at a fixed height). Costs up to 26 re-votes and matches of the
+    /// profile columns per estimate (see [`ScaleRange`]).
+    pub const fn with_scale_search(mut self, range: ScaleRange) -> Self {
+        self.scale = Some(range);
+        self
+    }
+
+    /// The scale range searched, if any.
+    pub const fn scale_search(&self) -> Option<ScaleRange> {
+        self.scale
     }
 
     /// The mode.
@@ -411,7 +428,8 @@ impl<
         }
     }
 
-    /// The improved direction test and the translation fit.
+    /// The improved direction test and the pose (translation, and scale when
+    /// a [`ScaleRange`] is set).
     fn profile_test(
         &mut self,
         reference: &Reference<W, H, HALF, RHO>,
@@ -425,39 +443,41 @@ impl<
             .to_num::<i32>()
             .max(1) as usize;
         let table = &TrigTable::<N>::TABLE;
+        let mut pose_columns: Vec<PoseColumn<'_, RHO>, PROFILE_COLUMNS> = Vec::new();
         let mut direct_shifts: Vec<ColumnShift, PROFILE_COLUMNS> = Vec::new();
         let mut flipped_shifts: Vec<ColumnShift, PROFILE_COLUMNS> = Vec::new();
         let (mut direct_sum, mut flipped_sum) = (0u64, 0u64);
-        // For the translation, columns count by their strength D(θ): a weak
-        // column's shift is mostly clutter. For the direction every column
-        // counts the same (measured: weighting by strength flips more real
-        // scan pairs, strong walls are often mirror-symmetric corridors).
+        // For the pose, columns count by their strength D(θ): a weak column's
+        // shift is mostly clutter. For the direction every column counts the
+        // same (measured: weighting by strength flips more real scan pairs,
+        // strong walls are often mirror-symmetric corridors).
         let strongest = reference
             .profiles()
             .first()
             .map_or(1, |p| u64::from(reference.signature().peak(p.theta)).max(1));
+        let [column, _] = &mut self.columns;
         for profile in reference.profiles() {
             // Column of image 2 where the reference column θ lands under α.
             let theta = Angle::from_steps_q16((profile.theta as i64) << 16, N);
             let m = (theta + alpha).nearest_step(N);
-            let column = &mut self.columns[0];
-            column.fill(0);
-            vote_column::<W, H, RW, N, RHO>(grid, m % HALF, column);
-            if m >= HALF {
-                mirror(column);
-            }
+            vote_profile_column::<W, H, RW, N, HALF, RHO>(grid, m, UNIT_SCALE_Q16, column);
             let direct = match_profile(&profile.counts, column, max_shift, false);
             let flipped = match_profile(&profile.counts, column, max_shift, true);
             let strength = u64::from(reference.signature().peak(profile.theta));
             direct_sum += u64::from(direct.score_q16);
             flipped_sum += u64::from(flipped.score_q16);
             // Only columns at least 30 % as strong as the strongest locate
-            // the translation, weighted by score × relative strength.
+            // the pose, weighted by score × relative strength.
             if 10 * strength >= 3 * strongest {
-                let normal = (table.cos(m), table.sin(m));
-                let relative_q16 = (strength << 16) / strongest;
-                let _ = direct_shifts.push(column_shift(normal, direct, relative_q16));
-                let _ = flipped_shifts.push(column_shift(normal, flipped, relative_q16));
+                let pose = PoseColumn {
+                    counts: &profile.counts,
+                    m,
+                    normal_q15: (table.cos(m), table.sin(m)),
+                    relative_q16: (strength << 16) / strongest,
+                };
+                let _ = direct_shifts.push(pose.shift(direct));
+                let _ = flipped_shifts.push(pose.shift(flipped));
+                let _ = pose_columns.push(pose);
             }
         }
         let count = reference.profiles().len().max(1) as u64;
@@ -468,9 +488,26 @@ impl<
         } else {
             HalfTurn::Flipped
         };
-        let shifts = match chosen {
-            HalfTurn::Direct => &direct_shifts,
-            HalfTurn::Flipped => &flipped_shifts,
+        let mirrored = chosen == HalfTurn::Flipped;
+        let translation = match self.scale {
+            None => fit_translation(if mirrored {
+                &flipped_shifts
+            } else {
+                &direct_shifts
+            }),
+            Some(range) => {
+                let (shifts, scale_q16) = search_scale::<W, H, RW, N, HALF, RHO>(
+                    grid,
+                    &pose_columns,
+                    PoseSearch {
+                        range,
+                        mirrored,
+                        max_shift,
+                    },
+                    column,
+                );
+                fit_translation(&shifts).map(|t| t.scaled(scale_q16))
+            }
         };
         (
             alpha,
@@ -479,18 +516,110 @@ impl<
                 direct,
                 flipped,
             },
-            fit_translation(shifts),
+            translation,
         )
     }
 }
 
-/// A column's shift for the translation fit, weighted by its match score
-/// times its relative strength (both Q16).
-fn column_shift(normal: (i32, i32), m: ProfileMatch, relative_q16: u64) -> ColumnShift {
-    ColumnShift {
-        normal_q15: normal,
-        shift_q16: m.shift_q16,
-        weight_q16: ((u64::from(m.score_q16) * relative_q16) >> 16) as u32,
+/// A reference column that locates the pose: its profile, the column `m` of
+/// image 2 it lands on, that column's normal and its relative strength.
+struct PoseColumn<'a, const RHO: usize> {
+    counts: &'a [u8; RHO],
+    m: usize,
+    normal_q15: (i32, i32),
+    relative_q16: u64,
+}
+
+impl<const RHO: usize> PoseColumn<'_, RHO> {
+    /// The column's shift for the translation fit, weighted by the match
+    /// score times the relative strength (both Q16).
+    fn shift(&self, m: ProfileMatch) -> ColumnShift {
+        ColumnShift {
+            normal_q15: self.normal_q15,
+            shift_q16: m.shift_q16,
+            weight_q16: ((u64::from(m.score_q16) * self.relative_q16) >> 16) as u32,
+        }
+    }
+}
+
+/// What the scale search needs besides the columns.
+struct PoseSearch {
+    range: ScaleRange,
+    mirrored: bool,
+    max_shift: usize,
+}
+
+/// Searches the scale (Q16) over `search.range`: each candidate `s` re-votes
+/// the pose columns of `grid` at `ρ / s`, matches them, and scores how much
+/// of their weight (match × relative strength) one translation explains
+/// ([`agreement_q16`]). Returns the column shifts at the chosen
+/// scale (they measure `n·t / s`) and the scale. `column` is scratch.
+fn search_scale<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+>(
+    grid: &Grid<W, H, RW>,
+    columns: &[PoseColumn<'_, RHO>],
+    search: PoseSearch,
+    column: &mut Column<RHO>,
+) -> (Vec<ColumnShift, PROFILE_COLUMNS>, u32) {
+    // Between the best coarse scale and the final one the shift `n·t / s`
+    // moves by at most a coarse step (≤ 3 %) of the largest shift.
+    let radius = 2 + search.max_shift / 16;
+    let mut centres = [0i32; PROFILE_COLUMNS];
+    let mut best_full = 0u64;
+    let mut shifts: Vec<ColumnShift, PROFILE_COLUMNS> = Vec::new();
+    let scale_q16 = scale::search(search.range, |s_q16, window| {
+        let inv_scale_q16 =
+            ((1u64 << 32) / u64::from(s_q16.max(1))).min(u64::from(u32::MAX)) as u32;
+        shifts.clear();
+        let mut found = [0i32; PROFILE_COLUMNS];
+        for ((pose, centre), found) in columns.iter().zip(centres).zip(found.iter_mut()) {
+            vote_profile_column::<W, H, RW, N, HALF, RHO>(grid, pose.m, inv_scale_q16, column);
+            let m = match window {
+                Window::Full => {
+                    match_profile(pose.counts, column, search.max_shift, search.mirrored)
+                }
+                Window::Near => {
+                    match_profile_near(pose.counts, column, centre, radius, search.mirrored)
+                }
+            };
+            *found = (m.shift_q16 + (1 << 15)) >> 16;
+            let _ = shifts.push(pose.shift(m));
+        }
+        let total = agreement_q16(&shifts);
+        if window == Window::Full && total > best_full {
+            (best_full, centres) = (total, found);
+        }
+        total
+    });
+    (shifts, scale_q16)
+}
+
+/// Votes column `m ∈ [0, N)` of image 2 into `column` (zeroed first) with
+/// split votes at `ρ · inv_scale`: columns `m ≥ HALF` are the mirror of
+/// `m − HALF`.
+fn vote_profile_column<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+>(
+    grid: &Grid<W, H, RW>,
+    m: usize,
+    inv_scale_q16: u32,
+    column: &mut Column<RHO>,
+) {
+    column.fill(0);
+    vote_column_split::<W, H, RW, N, RHO>(grid, m % HALF, inv_scale_q16, column);
+    if m >= HALF {
+        mirror(column);
     }
 }
 

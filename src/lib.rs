@@ -11,16 +11,20 @@ mod error;
 mod estimate;
 mod grid;
 mod reference;
+mod scale;
 mod scan;
 mod signature;
 mod translation;
 mod trig;
 
-pub use accumulator::{max_votes_per_bin, vote_column, vote_column_pair, Accumulator, Column};
+pub use accumulator::{
+    max_votes_per_bin, vote_column, vote_column_pair, vote_column_split, Accumulator, Column,
+    SPLIT_VOTE_BITS, UNIT_SCALE_Q16,
+};
 pub use angle::Angle;
 pub use config::{half_turn_steps, recommended_n_theta, rho_bins, row_words};
 pub use correlation::{Correlation, Peak, MAX_PEAKS};
-pub use direction::{match_profile, paper_asymmetry, ProfileMatch};
+pub use direction::{match_profile, match_profile_near, paper_asymmetry, ProfileMatch};
 pub use error::Error;
 pub use estimate::{
     Candidate, Estimate, Estimator, HalfTurn, HalfTurnTest, Mode, Prior, Status, Thresholds,
@@ -28,6 +32,7 @@ pub use estimate::{
 };
 pub use grid::Grid;
 pub use reference::{Profile, Reference, PROFILE_COLUMNS};
+pub use scale::{ScaleRange, MAX_COARSE_STEPS};
 pub use scan::{
     range_percentile, Motion, Raster, Scan, ScanStats, SensorOffset, AUTO_MAX_RADIUS_M,
     AUTO_MIN_RADIUS_M, AUTO_PERCENTILE,

@@ -3,7 +3,7 @@
 //! Stored as a plain struct or as bytes (e.g. in flash), so each new
 //! measurement costs one signature, not two.
 
-use crate::accumulator::{vote_column, Column};
+use crate::accumulator::{vote_column_split, Column, UNIT_SCALE_Q16};
 use crate::correlation::circular_distance;
 use crate::signature::{PeakKind, Signature};
 use crate::{Error, Grid};
@@ -16,8 +16,9 @@ pub const PROFILE_COLUMNS: usize = 4;
 pub struct Profile<const RHO: usize> {
     /// Column index `k ∈ [0, HALF)` (θ = πk/HALF).
     pub theta: usize,
-    /// `A(θ, b) >> shift` per bin, with the smallest shift that fits `u8`
-    /// (the matching is scale-invariant).
+    /// The column's split votes ([`vote_column_split`](crate::vote_column_split))
+    /// `>> shift` per bin, with the smallest shift that fits `u8` (the
+    /// matching is invariant to a common factor).
     pub counts: [u8; RHO],
 }
 
@@ -54,7 +55,7 @@ impl<const W: usize, const H: usize, const HALF: usize, const RHO: usize>
         let mut profiles = heapless::Vec::new();
         for theta in strongest_columns(&signature) {
             column.fill(0);
-            vote_column::<W, H, RW, N, RHO>(grid, theta, column);
+            vote_column_split::<W, H, RW, N, RHO>(grid, theta, UNIT_SCALE_Q16, column);
             let max = column.iter().copied().max().unwrap_or(0);
             let shift = (16 - max.leading_zeros()).saturating_sub(8);
             let mut counts = [0u8; RHO];

@@ -285,7 +285,8 @@ impl Raster {
     /// grids (see the module docs): `dθ = −α` in (−π, π], and, given the
     /// estimate's translation `t` (pixels), `d = −R(dθ)·t·cell` metres, in
     /// the robot frame at scan 1 — directly comparable with the scan-pair
-    /// files' `dx`, `dy`, `dtheta`.
+    /// files' `dx`, `dy`, `dtheta`. The translation's scale is not used: two
+    /// scans of one sensor have `s = 1` (leave the scale search off).
     pub fn motion(&self, alpha: Angle, translation: Option<&Translation>) -> Motion {
         let dtheta = angle_radians(-alpha);
         let d = translation.and_then(|t| {
@@ -600,6 +601,7 @@ mod tests {
         let translation = Translation {
             x: fixed::types::I16F16::from_num(t.0),
             y: fixed::types::I16F16::from_num(t.1),
+            scale: fixed::types::I16F16::ONE,
             residual: fixed::types::I16F16::ZERO,
             unobservable: None,
         };

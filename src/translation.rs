@@ -21,8 +21,9 @@ pub struct ColumnShift {
     pub weight_q16: u32,
 }
 
-/// Translation `t` of the scene in pixels, in the centred, y-up image frame
-/// (a point `p` of image 1 appears in image 2 at `R(α)·p + t`).
+/// The rest of the pose after the rotation: translation `t` (pixels, in the
+/// centred, y-up image frame) and scale `s`, such that a point `p` of image 1
+/// appears in image 2 at `s·R(α)·p + t`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Translation {
@@ -30,8 +31,11 @@ pub struct Translation {
     pub x: I16F16,
     /// `t_y`, pixels.
     pub y: I16F16,
-    /// Weighted RMS of `n_j · t − s_j` over the columns kept, pixels: how well
-    /// the columns agree.
+    /// Scale `s`: exactly 1 unless the estimator searches a
+    /// [`ScaleRange`](crate::ScaleRange).
+    pub scale: I16F16,
+    /// Weighted RMS of `n_j · t − s_j` over the columns kept, pixels of
+    /// image 2: how well the columns agree.
     pub residual: I16F16,
     /// Unit vector along which `t` is not observable (all column normals are
     /// nearly perpendicular to it); `t` has no component along it.
@@ -79,9 +83,52 @@ pub fn fit_translation(shifts: &[ColumnShift]) -> Option<Translation> {
     Some(Translation {
         x: to_fixed(x),
         y: to_fixed(y),
+        scale: I16F16::ONE,
         residual: to_fixed(residual),
         unobservable: unobservable.map(|(ux, uy)| (to_fixed(ux), to_fixed(uy))),
     })
+}
+
+impl Translation {
+    /// The pose for column shifts measured on columns re-voted at `ρ / s`
+    /// (which measure `n·t / s`): `t` and the residual times `s`, and `s`.
+    pub(crate) fn scaled(self, scale_q16: u32) -> Self {
+        let s = I16F16::from_bits(scale_q16.min(i32::MAX as u32) as i32);
+        Self {
+            x: self.x.saturating_mul(s),
+            y: self.y.saturating_mul(s),
+            scale: s,
+            residual: self.residual.saturating_mul(s),
+            unobservable: self.unobservable,
+        }
+    }
+}
+
+/// Shifts farther than this (pixels) from the fitted translation count
+/// nothing in [`agreement_q16`].
+const AGREEMENT_PX: f32 = 2.0;
+
+/// How much of the columns' weight one translation explains, Q16: the sum
+/// of the weights, each times `max(0, 1 − (e / 2 px)²)` with `e` the
+/// column's distance from the fit. Zero when no fit exists.
+///
+/// The scale search maximises this: a column holding a single line matches
+/// at every scale (a stretch of one peak looks like a shift), but only at
+/// the right scale do the shifts of three or more columns agree on one `t`.
+pub(crate) fn agreement_q16(shifts: &[ColumnShift]) -> u64 {
+    let Some(fit) = fit_translation(shifts) else {
+        return 0;
+    };
+    let (x, y) = (fit.x.to_num::<f32>(), fit.y.to_num::<f32>());
+    shifts
+        .iter()
+        .map(|c| {
+            let e = residual_of(c, x, y) / AGREEMENT_PX;
+            let agreement = (1.0 - e * e).max(0.0);
+            // `as` saturates; agreement ∈ [0, 1].
+            (c.weight_q16 as f32 * agreement) as u64
+        })
+        .sum()
 }
 
 /// `√v` to f32 precision: `micromath`'s estimate (≈ 5 % error) refined by

@@ -187,6 +187,9 @@ pub struct Outcome {
     pub translation_error_px: Option<f64>,
     /// The library reported an unobservable translation direction.
     pub translation_unobservable: bool,
+    /// Relative scale error `|ŝ − s| / s` when a translation (and so a
+    /// scale, 1 unless searched) was returned.
+    pub scale_error: Option<f64>,
 }
 
 impl Outcome {
@@ -250,6 +253,9 @@ pub fn outcome(estimate: &Estimate, truth: &Transform, half_turn_symmetric: bool
         translation_unobservable: estimate
             .translation
             .is_some_and(|t| t.unobservable.is_some()),
+        scale_error: estimate
+            .translation
+            .map(|t| (t.scale.to_num::<f64>() - truth.scale).abs() / truth.scale),
     }
 }
 
@@ -326,6 +332,10 @@ pub struct Summary {
     pub translation_median_px: f64,
     /// 90th percentile of the translation error, pixels.
     pub translation_p90_px: f64,
+    /// Median relative scale error, over trials with the rotation right.
+    pub scale_median: f64,
+    /// 90th percentile of the relative scale error.
+    pub scale_p90: f64,
 }
 
 impl Summary {
@@ -354,6 +364,11 @@ impl Summary {
             .filter(|o| !o.failed())
             .filter_map(|o| o.translation_error_px)
             .collect();
+        let scale: Vec<f64> = outcomes
+            .iter()
+            .filter(|o| !o.failed())
+            .filter_map(|o| o.scale_error)
+            .collect();
         Self {
             trials: outcomes.len(),
             median_deg: quantile(&errors, 0.5),
@@ -364,6 +379,8 @@ impl Summary {
             failures_unflagged,
             translation_median_px: quantile(&translation, 0.5),
             translation_p90_px: quantile(&translation, 0.9),
+            scale_median: quantile(&scale, 0.5),
+            scale_p90: quantile(&scale, 0.9),
         }
     }
 }

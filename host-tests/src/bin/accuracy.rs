@@ -41,7 +41,7 @@ use host_tests::eval::{
 use host_tests::scene::{render_pair, Damage, SceneKind, Transform};
 use hough_heading::{
     half_turn_steps, match_profile, rho_bins, row_words, vote_column, Angle, ColumnShift,
-    Estimator, Grid, Mode, Reference, Score, Status, Thresholds, TrigTable,
+    Estimator, Grid, Mode, Reference, ScaleRange, Score, Status, Thresholds, TrigTable,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -175,6 +175,9 @@ fn run_row<const W: usize, const RW: usize, const RHO: usize>(
         let (truth, pair) = render(row.kind, &row.damage.1, W, W, row.with_scale, seed);
         let mut paper = Estimator::<W, W, RW, N_THETA, HALF, RHO>::new(Mode::Paper);
         let mut improved = Estimator::<W, W, RW, N_THETA, HALF, RHO>::new(Mode::Improved);
+        if row.with_scale {
+            improved = improved.with_scale_search(ScaleRange::DEFAULT);
+        }
         (
             run_pair(&mut paper, &pair, &truth, symmetric),
             run_pair(&mut improved, &pair, &truth, symmetric),
@@ -209,8 +212,8 @@ fn num(v: f64, digits: usize) -> String {
 }
 
 fn table_header() -> String {
-    "| scene | size | damage | scale | mode | median ° | p90 ° | fail > 5° | wrong half-turn | flagged | fail among unflagged | t median px | t p90 px |\n\
-     |---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+    "| scene | size | damage | scale | mode | median ° | p90 ° | fail > 5° | wrong half-turn | flagged | fail among unflagged | t median px | t p90 px | s error median | s error p90 |\n\
+     |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
         .into()
 }
 
@@ -218,7 +221,7 @@ fn table_line(row: &Row, mode: Mode, s: &Summary) -> String {
     let symmetric = row.kind.is_centrally_symmetric();
     let translation = mode == Mode::Improved;
     format!(
-        "| {}{} | {}² | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+        "| {}{} | {}² | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
         row.kind.name(),
         if row.independent { " (indep.)" } else { "" },
         row.size,
@@ -249,7 +252,26 @@ fn table_line(row: &Row, mode: Mode, s: &Summary) -> String {
         } else {
             "–".into()
         },
+        if translation && row.with_scale {
+            pct_fine(s.scale_median)
+        } else {
+            "–".into()
+        },
+        if translation && row.with_scale {
+            pct_fine(s.scale_p90)
+        } else {
+            "–".into()
+        },
     )
+}
+
+/// A small share with two decimals (scale errors).
+fn pct_fine(v: f64) -> String {
+    if v.is_nan() {
+        "–".into()
+    } else {
+        format!("{:.2} %", 100.0 * v)
+    }
 }
 
 /// Improved mode: share of each status per row, and how often the half

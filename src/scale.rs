@@ -1,0 +1,195 @@
+//! Scale of the scene between the two images: a bounded 1-D search.
+//!
+//! A scale `s` about the image centre stretches every accumulator column:
+//! the line `ρ` of image 1 lies at `s·ρ + n·t` in image 2. Re-voting the
+//! columns of image 2 at `ρ / s` undoes the stretch, so the score of a
+//! candidate `s` is how well the reference profiles match those re-voted
+//! columns (at their best shift). [`search`] scans the range on a coarse
+//! grid, then halves the step three times around the best point and ends
+//! with a parabola through the best point and its two nearest neighbours.
+
+use crate::{Error, Score};
+
+/// The scales the estimator searches, `min ≤ s ≤ max`, with
+/// `0.5 ≤ min ≤ max ≤ 2`.
+///
+/// Cost: one evaluation re-votes the reference's profile columns (at most
+/// [`PROFILE_COLUMNS`](crate::PROFILE_COLUMNS)) and matches them; a search
+/// makes at most `MAX_COARSE_STEPS + 1 + 9 = 26` evaluations (17 + 9 for the
+/// default range 0.8–1.25), the coarse ones over the whole shift window.
+/// Below `s ≈ 0.72` votes far from the centre may fall outside the column
+/// (they are dropped, the estimate degrades gracefully).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ScaleRange {
+    min: Score,
+    max: Score,
+}
+
+/// Largest number of coarse steps of a search (the step grows beyond
+/// `COARSE_STEP` for wide ranges).
+pub const MAX_COARSE_STEPS: u32 = 16;
+
+/// Preferred coarse step of the scale search: 2.5 %, about one bin at 40 px
+/// from the centre, so the coarse grid cannot step over a match peak.
+const COARSE_STEP: Score = Score::from_bits(1638);
+
+impl ScaleRange {
+    /// 0.8 to 1.25 (a camera whose height changes by ±20 %).
+    pub const DEFAULT: ScaleRange = ScaleRange {
+        min: Score::from_bits(52_429), // 0.8
+        max: Score::from_bits(81_920), // 1.25
+    };
+
+    /// `min ≤ s ≤ max`.
+    ///
+    /// # Errors
+    /// [`Error::InvalidScaleRange`] unless `0.5 ≤ min ≤ max ≤ 2`.
+    pub fn new(min: Score, max: Score) -> Result<Self, Error> {
+        let (lowest, highest) = (Score::from_num(0.5), Score::from_num(2));
+        if lowest <= min && min <= max && max <= highest {
+            Ok(Self { min, max })
+        } else {
+            Err(Error::InvalidScaleRange)
+        }
+    }
+
+    /// Smallest scale searched.
+    pub const fn min(&self) -> Score {
+        self.min
+    }
+
+    /// Largest scale searched.
+    pub const fn max(&self) -> Score {
+        self.max
+    }
+}
+
+impl Default for ScaleRange {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// Which shifts an evaluation of the search must try.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Window {
+    /// The whole shift window (coarse grid: the shifts are not known yet).
+    Full,
+    /// Near the shifts of the best coarse evaluation (refinement).
+    Near,
+}
+
+/// The scale (Q16) in `range` maximising `score(s_q16, window)`.
+///
+/// `score` is evaluated at most `MAX_COARSE_STEPS + 1 + 9` times: the coarse
+/// grid with [`Window::Full`], then six refinements, the two neighbours of
+/// the final parabola and its vertex with [`Window::Near`]. The caller keeps the shifts of the best
+/// [`Window::Full`] evaluation as the centres of the later ones; the last
+/// call is always at the returned scale, so the caller's last shifts belong
+/// to it.
+pub(crate) fn search(range: ScaleRange, mut score: impl FnMut(u32, Window) -> u64) -> u32 {
+    let (min, max) = (range.min.to_bits() as u32, range.max.to_bits() as u32);
+    let width = max - min;
+    let steps = width
+        .div_ceil(COARSE_STEP.to_bits() as u32)
+        .clamp(1, MAX_COARSE_STEPS);
+    let step = (width / steps).max(1);
+    let mut best = (0u64, min);
+    for i in 0..=steps {
+        let s = if i == steps { max } else { min + i * step };
+        let value = score(s, Window::Full);
+        if value > best.0 {
+            best = (value, s);
+        }
+    }
+    // Three halvings around the best point, each keeping the best of three.
+    let (mut value, mut s) = best;
+    let mut half = step / 2;
+    for _ in 0..3 {
+        let below = s.saturating_sub(half).max(min);
+        let above = (s + half).min(max);
+        let (v_below, v_above) = (score(below, Window::Near), score(above, Window::Near));
+        if v_below > value && v_below >= v_above {
+            (value, s) = (v_below, below);
+        } else if v_above > value {
+            (value, s) = (v_above, above);
+        }
+        half /= 2;
+    }
+    // A parabola through the best point and its neighbours at `half`.
+    let (before, after) = (
+        score(s.saturating_sub(half).max(min), Window::Near) as i64,
+        score((s + half).min(max), Window::Near) as i64,
+    );
+    let spacing = i64::from(half);
+    let curvature = before - 2 * value as i64 + after;
+    let offset = if curvature < 0 {
+        ((before - after) * spacing / (2 * curvature)).clamp(-spacing, spacing)
+    } else {
+        0
+    };
+    let refined = (i64::from(s) + offset).clamp(i64::from(min), i64::from(max)) as u32;
+    // The caller's last shifts must belong to the returned scale.
+    score(refined, Window::Near);
+    refined
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A smooth single-peaked score with its maximum at `peak` (Q16).
+    fn peaked(peak: u32) -> impl FnMut(u32, Window) -> u64 {
+        move |s, _| {
+            let d = (i64::from(s) - i64::from(peak)).unsigned_abs();
+            1_000_000_000u64.saturating_sub(d * d / 8)
+        }
+    }
+
+    #[test]
+    fn finds_a_smooth_peak_to_a_fraction_of_a_percent() {
+        for peak in [0.8, 0.83, 0.97, 1.0, 1.013, 1.1, 1.25] {
+            let p = (peak * 65536.0) as u32;
+            let s = search(ScaleRange::DEFAULT, peaked(p));
+            let error = (f64::from(s) / 65536.0 - peak).abs();
+            assert!(
+                error < 0.001,
+                "peak {peak}: found {}",
+                f64::from(s) / 65536.0
+            );
+        }
+    }
+
+    #[test]
+    fn evaluations_are_bounded_and_the_last_is_the_answer() {
+        let (mut calls, mut last) = (0u32, None);
+        let range = ScaleRange::new(Score::from_num(0.5), Score::from_num(2)).unwrap();
+        let s = search(range, |s, w| {
+            calls += 1;
+            last = Some((s, w));
+            peaked(70_000)(s, w)
+        });
+        assert!(calls <= MAX_COARSE_STEPS + 1 + 9);
+        assert_eq!(last, Some((s, Window::Near)));
+        assert!((i64::from(s) - 70_000).abs() < 65);
+    }
+
+    #[test]
+    fn invalid_ranges_are_refused() {
+        let n = Score::from_num;
+        assert_eq!(
+            ScaleRange::new(n(1.2), n(1.1)),
+            Err(Error::InvalidScaleRange)
+        );
+        assert_eq!(
+            ScaleRange::new(n(0.4), n(1.1)),
+            Err(Error::InvalidScaleRange)
+        );
+        assert_eq!(
+            ScaleRange::new(n(0.9), n(2.5)),
+            Err(Error::InvalidScaleRange)
+        );
+        assert!(ScaleRange::new(n(1.0), n(1.0)).is_ok());
+    }
+}
