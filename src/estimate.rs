@@ -261,6 +261,11 @@ impl<
         self
     }
 
+    /// The status thresholds.
+    pub const fn thresholds(&self) -> Thresholds {
+        self.thresholds
+    }
+
     /// The scale range searched, if any.
     pub const fn scale_search(&self) -> Option<ScaleRange> {
         self.scale

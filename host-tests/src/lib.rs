@@ -9,6 +9,8 @@ pub mod cli;
 #[cfg(not(target_os = "none"))]
 pub mod eval;
 #[cfg(not(target_os = "none"))]
+pub mod pose_reference;
+#[cfg(not(target_os = "none"))]
 pub mod reference;
 #[cfg(not(target_os = "none"))]
 pub mod scene;

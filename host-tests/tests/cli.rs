@@ -527,3 +527,47 @@ fn real_fr079_pairs_with_overlap_are_mostly_within_two_degrees() {
     assert_eq!(pairs, 100);
     assert!(within >= 80, "{within}/100 within 2°");
 }
+
+#[test]
+fn images_scale_search_recovers_a_known_scale_and_translation() {
+    use host_tests::scene::{render_pair, write_pbm, Damage, PbmFormat, SceneKind, Transform};
+    use rand::SeedableRng;
+    // A random polygon, turned 25°, moved (3.25, −1.5) px and scaled by 1.07
+    // about the image centre.
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let scene = SceneKind::RandomPolygon.generate(&mut rng);
+    let truth = Transform {
+        alpha_rad: 25f64.to_radians(),
+        tx: 3.25,
+        ty: -1.5,
+        scale: 1.07,
+    };
+    let pair = render_pair(&scene, &truth, &Damage::CLEAN, 128, 128, 7);
+    let dir = scratch("scale");
+    let (a, b) = (dir.join("a.pbm"), dir.join("b.pbm"));
+    write_pbm(&pair.i1.image, &a, PbmFormat::Binary).unwrap();
+    write_pbm(&pair.i2.image, &b, PbmFormat::Binary).unwrap();
+    let (a, b) = (a.display().to_string(), b.display().to_string());
+    let run = |extra: &[&str]| {
+        let mut args = vec!["images", a.as_str(), b.as_str(), "--json"];
+        args.extend_from_slice(extra);
+        let o = tool(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        serde_json::from_str::<serde_json::Value>(stdout(&o).trim()).unwrap()
+    };
+    let f = |v: &serde_json::Value, key: &str| v[key].as_f64().unwrap();
+    let v = run(&["--scale-search"]);
+    assert!((f(&v, "alpha_deg") - 25.0).abs() < 0.5, "{v}");
+    assert!((f(&v, "scale") - 1.07).abs() < 0.01, "{v}");
+    assert!((f(&v, "tx_px") - 3.25).abs() < 0.75, "{v}");
+    assert!((f(&v, "ty_px") + 1.5).abs() < 0.75, "{v}");
+    assert!(f(&v, "residual_px") >= 0.0, "{v}");
+    // Without the search the scale is reported as exactly 1.
+    assert_eq!(f(&run(&[]), "scale"), 1.0);
+    // A range outside 0.5–2, or not MIN:MAX, is a usage error.
+    for bad in ["0.3:1.2", "1.2:1.1", "x", "0.9"] {
+        let o = tool(&["images", &a, &b, &format!("--scale-search={bad}")]);
+        assert_eq!(o.status.code(), Some(2), "{bad}: {}", stderr(&o));
+        assert!(stderr(&o).contains("--scale-search"), "{}", stderr(&o));
+    }
+}

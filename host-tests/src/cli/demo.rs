@@ -214,6 +214,7 @@ fn demo_images(dir: &Path) -> Result<(usize, usize), Fatal> {
         fit: Fit::None,
         threshold: 128,
         invert: false,
+        scale_search: None,
     };
     let estimator = EstimatorArgs {
         mode: ModeArg::Improved,

@@ -6,7 +6,7 @@
 
 use hough_heading::{
     half_turn_steps, rho_bins, row_words, Accumulator, Correlation, Estimate, Estimator, Grid,
-    Mode, PeakKind, Raster, Scan, ScanStats, Signature, Thresholds,
+    Mode, PeakKind, Raster, ScaleRange, Scan, ScanStats, Signature, Thresholds,
 };
 
 use crate::reference::Image;
@@ -59,6 +59,8 @@ pub trait Engine {
     fn n_theta(&self) -> usize;
     /// Replaces the status thresholds of both modes.
     fn set_thresholds(&mut self, thresholds: Thresholds);
+    /// Makes the improved mode search the scale over `range` (`None`: s = 1).
+    fn set_scale_search(&mut self, range: Option<ScaleRange>);
     /// Clears the grid of `view` and draws `scan` into it.
     fn rasterize(&mut self, view: View, scan: &Scan<'_>, raster: &Raster) -> ScanStats;
     /// Replaces the grid of `view` by `image` (cells beyond the grid are
@@ -103,8 +105,20 @@ impl<
     }
 
     fn set_thresholds(&mut self, thresholds: Thresholds) {
-        self.improved = Estimator::new(Mode::Improved).with_thresholds(thresholds);
+        let mut improved = Estimator::new(Mode::Improved).with_thresholds(thresholds);
+        if let Some(range) = self.improved.scale_search() {
+            improved = improved.with_scale_search(range);
+        }
+        self.improved = improved;
         self.paper = Estimator::new(Mode::Paper).with_thresholds(thresholds);
+    }
+
+    fn set_scale_search(&mut self, range: Option<ScaleRange>) {
+        let improved = Estimator::new(Mode::Improved).with_thresholds(self.improved.thresholds());
+        self.improved = match range {
+            Some(range) => improved.with_scale_search(range),
+            None => improved,
+        };
     }
 
     fn rasterize(&mut self, view: View, scan: &Scan<'_>, raster: &Raster) -> ScanStats {

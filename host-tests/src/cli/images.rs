@@ -122,17 +122,18 @@ pub fn place(image: &Image, name: &str, size: usize, fit: Fit) -> Result<Placed,
 
 /// The translation in the images' own centred coordinates from the one
 /// measured on the placed grids: with `p₁' = p₁ + c₁`, `p₂' = p₂ + c₂` and
-/// `p₂' = R(α)p₁' + t'`, `t = t' + R(α)c₁ − c₂`.
+/// `p₂' = s·R(α)p₁' + t'`, `t = t' + s·R(α)c₁ − c₂`.
 pub fn unplace_translation(
     t: (f64, f64),
     alpha_rad: f64,
+    scale: f64,
     c1: (f64, f64),
     c2: (f64, f64),
 ) -> (f64, f64) {
     let (s, c) = alpha_rad.sin_cos();
     (
-        t.0 + c * c1.0 - s * c1.1 - c2.0,
-        t.1 + s * c1.0 + c * c1.1 - c2.1,
+        t.0 + scale * (c * c1.0 - s * c1.1) - c2.0,
+        t.1 + scale * (s * c1.0 + c * c1.1) - c2.1,
     )
 }
 
@@ -153,15 +154,21 @@ mod tests {
 
     #[test]
     fn translation_is_mapped_back() {
-        // A point p1 in A, p2 = R p1 + t in B; both images shifted.
-        let (alpha, t) = (0.7f64, (3.0, -2.0));
-        let (c1, c2) = ((0.5, -1.0), (-0.5, 0.5));
-        let p1 = (2.0, 1.0);
-        let (s, c) = alpha.sin_cos();
-        let p2 = (c * p1.0 - s * p1.1 + t.0, s * p1.0 + c * p1.1 + t.1);
-        let (q1, q2) = ((p1.0 + c1.0, p1.1 + c1.1), (p2.0 + c2.0, p2.1 + c2.1));
-        let t_placed = (q2.0 - (c * q1.0 - s * q1.1), q2.1 - (s * q1.0 + c * q1.1));
-        let back = unplace_translation(t_placed, alpha, c1, c2);
-        assert!((back.0 - t.0).abs() < 1e-12 && (back.1 - t.1).abs() < 1e-12);
+        // A point p1 in A, p2 = k·R p1 + t in B; both images shifted.
+        for k in [1.0, 1.1] {
+            let (alpha, t) = (0.7f64, (3.0, -2.0));
+            let (c1, c2) = ((0.5, -1.0), (-0.5, 0.5));
+            let (s, c) = alpha.sin_cos();
+            let map = |p: (f64, f64), t: (f64, f64)| {
+                (k * (c * p.0 - s * p.1) + t.0, k * (s * p.0 + c * p.1) + t.1)
+            };
+            let p1 = (2.0, 1.0);
+            let p2 = map(p1, t);
+            let (q1, q2) = ((p1.0 + c1.0, p1.1 + c1.1), (p2.0 + c2.0, p2.1 + c2.1));
+            let rq1 = map(q1, (0.0, 0.0));
+            let t_placed = (q2.0 - rq1.0, q2.1 - rq1.1);
+            let back = unplace_translation(t_placed, alpha, k, c1, c2);
+            assert!((back.0 - t.0).abs() < 1e-12 && (back.1 - t.1).abs() < 1e-12);
+        }
     }
 }

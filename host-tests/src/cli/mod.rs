@@ -20,7 +20,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use hough_heading::{Mode, Score, Thresholds};
+use hough_heading::{Mode, ScaleRange, Score, Thresholds};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
@@ -158,6 +158,37 @@ pub struct ImageArgs {
     /// Bright pixels are occupied (white-on-black images).
     #[arg(long)]
     pub invert: bool,
+    /// Also estimate the scale B/A (improved mode), searching MIN:MAX
+    /// (0.5 ≤ MIN ≤ MAX ≤ 2; without a value 0.8:1.25). Without this option
+    /// the scale is 1.
+    #[arg(long, value_name = "MIN:MAX", num_args = 0..=1, default_missing_value = "0.8:1.25")]
+    pub scale_search: Option<String>,
+}
+
+impl ImageArgs {
+    /// The scale range of `--scale-search`, if given.
+    ///
+    /// # Errors
+    /// A usage error when the value is not `MIN:MAX` with `0.5 ≤ MIN ≤ MAX ≤ 2`.
+    pub fn scale_range(&self) -> Result<Option<ScaleRange>, Fatal> {
+        let Some(text) = &self.scale_search else {
+            return Ok(None);
+        };
+        let bad = || {
+            Fatal::usage(format!(
+                "--scale-search {text}: expected MIN:MAX with 0.5 ≤ MIN ≤ MAX ≤ 2"
+            ))
+        };
+        let (min, max) = text.split_once(':').ok_or_else(bad)?;
+        let parse = |v: &str| v.trim().parse::<f64>().ok().filter(|v| v.is_finite());
+        let (min, max) = (parse(min).ok_or_else(bad)?, parse(max).ok_or_else(bad)?);
+        ScaleRange::new(
+            Score::from_num(min.clamp(0.0, 4.0)),
+            Score::from_num(max.clamp(0.0, 4.0)),
+        )
+        .map(Some)
+        .map_err(|_| bad())
+    }
 }
 
 /// `images A B`.
@@ -372,6 +403,14 @@ pub struct ImagesResult {
     pub tx_px: Option<f64>,
     /// Translation y (up), pixels.
     pub ty_px: Option<f64>,
+    /// Scale of B relative to A (1 unless `--scale-search`; null when no
+    /// translation was estimated).
+    pub scale: Option<f64>,
+    /// How well the columns agree on the translation: weighted RMS, pixels.
+    pub residual_px: Option<f64>,
+    /// Unit vector along which the translation is not observable (a
+    /// corridor), `[x, y]`; null when it is fully observable.
+    pub unobservable: Option<[f64; 2]>,
     /// Grid side used.
     pub size: usize,
     /// θ steps used.
@@ -431,6 +470,7 @@ pub fn load_images(
         }
     };
     let mut engine = estimator.engine(size)?;
+    engine.set_scale_search(args.scale_range()?);
     let pa = images::place(&ia, &a.display().to_string(), size, args.fit)?;
     let pb = images::place(&ib, &b.display().to_string(), size, args.fit)?;
     for (name, p) in [(a, &pa), (b, &pb)] {
@@ -460,6 +500,7 @@ pub fn images_result(
         images::unplace_translation(
             (t.x.to_num::<f64>(), t.y.to_num::<f64>()),
             alpha.to_radians(),
+            t.scale.to_num(),
             offsets[0],
             offsets[1],
         )
@@ -478,6 +519,18 @@ pub fn images_result(
             .collect(),
         tx_px: t.map(|t| scans::round(t.0, 3)),
         ty_px: t.map(|t| scans::round(t.1, 3)),
+        scale: e
+            .translation
+            .map(|t| scans::round(t.scale.to_num::<f64>(), 4)),
+        residual_px: e
+            .translation
+            .map(|t| scans::round(t.residual.to_num::<f64>(), 3)),
+        unobservable: e.translation.and_then(|t| t.unobservable).map(|(x, y)| {
+            [
+                scans::round(x.to_num::<f64>(), 4),
+                scans::round(y.to_num::<f64>(), 4),
+            ]
+        }),
         size: engine.size(),
         n_theta: engine.n_theta(),
     }
@@ -503,8 +556,23 @@ pub fn describe_images(r: &ImagesResult, mode: ModeArg) -> String {
         .map(|c| format!("{:+.2}° ({:.2})", c.alpha_deg, c.score))
         .collect();
     let translation = match (r.tx_px, r.ty_px) {
-        (Some(x), Some(y)) => format!("tx = {x:+.2} px, ty = {y:+.2} px (x right, y up)"),
+        (Some(x), Some(y)) => {
+            let mut text = format!("tx = {x:+.2} px, ty = {y:+.2} px (x right, y up)");
+            if let Some(residual) = r.residual_px {
+                text.push_str(&format!(", residual {residual:.2} px"));
+            }
+            if let Some([ux, uy]) = r.unobservable {
+                text.push_str(&format!(
+                    "; not observable along ({ux:+.2}, {uy:+.2}): only the component across it"
+                ));
+            }
+            text
+        }
         _ => "not estimated (paper mode, or the rotation is not resolved)".into(),
+    };
+    let scale = match r.scale {
+        Some(s) => format!("{s:.4}"),
+        None => "–".into(),
     };
     let mode = match mode {
         ModeArg::Improved => "improved",
@@ -515,6 +583,7 @@ pub fn describe_images(r: &ImagesResult, mode: ModeArg) -> String {
          status:      {} (confidence {:.2})\n\
          candidates:  {}\n\
          translation: {translation}\n\
+         scale:       {scale}\n\
          grid:        {size}×{size}, N_θ = {}, {mode} mode",
         r.alpha_deg,
         r.status,
