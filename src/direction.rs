@@ -76,13 +76,51 @@ pub fn match_profile_near<const RHO: usize>(
     radius: usize,
     mirrored: bool,
 ) -> ProfileMatch {
+    match_curve(profile, column, centre, radius, mirrored).0
+}
+
+/// Half-width, in shifts, of the [`MatchCurve`] kept around the best shift.
+const CURVE_RADIUS: usize = 2;
+
+/// The normalised match score at the integer shifts around the best one, so
+/// that the score at any nearby shift can be read without another pass.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct MatchCurve {
+    best: i32,
+    scores_q16: [u32; 2 * CURVE_RADIUS + 1],
+}
+
+impl MatchCurve {
+    /// The score (Q16) at `shift_q16`, linear between the integer shifts;
+    /// 0 farther than [`CURVE_RADIUS`] from the best integer shift.
+    pub(crate) fn score_at(&self, shift_q16: i32) -> u32 {
+        let from_first =
+            i64::from(shift_q16) - (i64::from(self.best) - CURVE_RADIUS as i64) * 65536;
+        if from_first < 0 {
+            return 0;
+        }
+        let (i, f) = ((from_first >> 16) as usize, (from_first & 0xffff) as u64);
+        let at = |k: usize| u64::from(self.scores_q16.get(k).copied().unwrap_or(0));
+        ((at(i) * (65536 - f) + at(i + 1) * f) >> 16) as u32
+    }
+}
+
+/// [`match_profile_near`] and the scores around its best integer shift.
+pub(crate) fn match_curve<const RHO: usize>(
+    profile: &[u8; RHO],
+    column: &Column<RHO>,
+    centre: i32,
+    radius: usize,
+    mirrored: bool,
+) -> (ProfileMatch, MatchCurve) {
+    let none = (ProfileMatch::default(), MatchCurve::default());
     // The mirrored profile P'[b] = P[RHO − b] is read backwards in place (no
     // copy on the stack); bin 0 is never voted and counts as empty.
     let Some(profile_body) = profile.get(1..) else {
-        return ProfileMatch::default();
+        return none;
     };
     let (Some((body_l, body_u)), Some((ql, qu))) = (support(profile_body), support(column)) else {
-        return ProfileMatch::default();
+        return none;
     };
     // Support of P (or P') in bins.
     let (pl, pu) = if mirrored {
@@ -97,7 +135,7 @@ pub fn match_profile_near<const RHO: usize>(
     let q_sq: u64 = column.iter().map(|&v| u64::from(v) * u64::from(v)).sum();
     let norm = isqrt_u128(u128::from(p_sq) * u128::from(q_sq));
     if norm == 0 {
-        return ProfileMatch::default();
+        return none;
     }
     // No shift beyond the column can overlap anyway.
     let radius = radius.min(RHO) as isize;
@@ -148,7 +186,7 @@ pub fn match_profile_near<const RHO: usize>(
     }
     let (peak, s) = best;
     if peak == 0 {
-        return ProfileMatch::default();
+        return none;
     }
     let (before, after) = (dot(s - 1) as i64, dot(s + 1) as i64);
     let curvature = before - 2 * peak as i64 + after;
@@ -160,10 +198,21 @@ pub fn match_profile_near<const RHO: usize>(
     } else {
         0
     };
-    ProfileMatch {
-        score_q16: ((u128::from(peak) << 16) / u128::from(norm)).min(1 << 16) as u32,
-        shift_q16: ((s as i64) << 16).saturating_add(offset) as i32,
+    let normalised = |d: u64| ((u128::from(d) << 16) / u128::from(norm)).min(1 << 16) as u32;
+    let mut curve = MatchCurve {
+        best: s as i32,
+        scores_q16: [0; 2 * CURVE_RADIUS + 1],
+    };
+    for (k, score) in curve.scores_q16.iter_mut().enumerate() {
+        *score = normalised(dot(s + k as isize - CURVE_RADIUS as isize));
     }
+    (
+        ProfileMatch {
+            score_q16: normalised(peak),
+            shift_q16: ((s as i64) << 16).saturating_add(offset) as i32,
+        },
+        curve,
+    )
 }
 
 /// First and last index holding a non-zero value.

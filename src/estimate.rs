@@ -3,11 +3,11 @@
 
 use crate::accumulator::{vote_column_split, Column, UNIT_SCALE_Q16};
 use crate::correlation::{Correlation, Peak};
-use crate::direction::{match_profile, match_profile_near, paper_asymmetry, ProfileMatch};
+use crate::direction::{match_curve, match_profile, paper_asymmetry, MatchCurve, ProfileMatch};
 use crate::reference::{Reference, PROFILE_COLUMNS};
 use crate::scale::{self, ScaleRange, Window};
 use crate::signature::{PeakKind, Signature};
-use crate::translation::{agreement_q16, fit_translation, ColumnShift, Translation};
+use crate::translation::{fit_translation, ColumnShift, Translation};
 use crate::trig::TrigTable;
 use crate::{Angle, Grid, Score};
 use heapless::Vec;
@@ -554,11 +554,15 @@ struct PoseSearch {
     max_shift: usize,
 }
 
-/// Searches the scale (Q16) over `search.range`: each candidate `s` re-votes
-/// the pose columns of `grid` at `ρ / s`, matches them, and scores how much
-/// of their weight (match × relative strength) one translation explains
-/// ([`agreement_q16`]). Returns the column shifts at the chosen
-/// scale (they measure `n·t / s`) and the scale. `column` is scratch.
+/// Searches the scale (Q16) over `search.range`. Each candidate `s` re-votes
+/// the pose columns of `grid` at `ρ / s` and matches them; the translation
+/// fitted to their best shifts predicts a shift per column, and the score of
+/// `s` is the columns' match at those predicted shifts, weighted by relative
+/// strength. A column holding a single line matches at every scale (the
+/// stretch of one peak looks like a shift); only at the right scale do three
+/// or more columns agree on one translation. Returns the column shifts at
+/// the chosen scale (they measure `n·t / s`) and the scale. `column` is
+/// scratch.
 fn search_scale<
     const W: usize,
     const H: usize,
@@ -582,23 +586,32 @@ fn search_scale<
         let inv_scale_q16 =
             ((1u64 << 32) / u64::from(s_q16.max(1))).min(u64::from(u32::MAX)) as u32;
         shifts.clear();
-        let mut found = [0i32; PROFILE_COLUMNS];
-        for ((pose, centre), found) in columns.iter().zip(centres).zip(found.iter_mut()) {
+        let mut curves = [MatchCurve::default(); PROFILE_COLUMNS];
+        for ((pose, centre), curve) in columns.iter().zip(centres).zip(curves.iter_mut()) {
             vote_profile_column::<W, H, RW, N, HALF, RHO>(grid, pose.m, inv_scale_q16, column);
-            let m = match window {
-                Window::Full => {
-                    match_profile(pose.counts, column, search.max_shift, search.mirrored)
-                }
-                Window::Near => {
-                    match_profile_near(pose.counts, column, centre, radius, search.mirrored)
-                }
+            let (centre, radius) = match window {
+                Window::Full => (0, search.max_shift),
+                Window::Near => (centre, radius),
             };
-            *found = (m.shift_q16 + (1 << 15)) >> 16;
+            let (m, c) = match_curve(pose.counts, column, centre, radius, search.mirrored);
+            *curve = c;
             let _ = shifts.push(pose.shift(m));
         }
-        let total = agreement_q16(&shifts);
+        let total = fit_translation(&shifts).map_or(0, |t| {
+            columns
+                .iter()
+                .zip(curves)
+                .map(|(pose, curve)| {
+                    let predicted = t.column_shift_q16(pose.normal_q15);
+                    (u64::from(curve.score_at(predicted)) * pose.relative_q16) >> 16
+                })
+                .sum()
+        });
         if window == Window::Full && total > best_full {
-            (best_full, centres) = (total, found);
+            best_full = total;
+            for (centre, shift) in centres.iter_mut().zip(&shifts) {
+                *centre = (shift.shift_q16 + (1 << 15)) >> 16;
+            }
         }
         total
     });

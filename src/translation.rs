@@ -90,6 +90,14 @@ pub fn fit_translation(shifts: &[ColumnShift]) -> Option<Translation> {
 }
 
 impl Translation {
+    /// The ρ shift `n·t` (Q16 pixels) this translation gives a column with
+    /// unit normal `n` (Q15), saturated to `i32`.
+    pub fn column_shift_q16(&self, normal_q15: (i32, i32)) -> i32 {
+        let dot = i64::from(normal_q15.0) * i64::from(self.x.to_bits())
+            + i64::from(normal_q15.1) * i64::from(self.y.to_bits());
+        (dot >> 15).clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+    }
+
     /// The pose for column shifts measured on columns re-voted at `ρ / s`
     /// (which measure `n·t / s`): `t` and the residual times `s`, and `s`.
     pub(crate) fn scaled(self, scale_q16: u32) -> Self {
@@ -102,33 +110,6 @@ impl Translation {
             unobservable: self.unobservable,
         }
     }
-}
-
-/// Shifts farther than this (pixels) from the fitted translation count
-/// nothing in [`agreement_q16`].
-const AGREEMENT_PX: f32 = 2.0;
-
-/// How much of the columns' weight one translation explains, Q16: the sum
-/// of the weights, each times `max(0, 1 − (e / 2 px)²)` with `e` the
-/// column's distance from the fit. Zero when no fit exists.
-///
-/// The scale search maximises this: a column holding a single line matches
-/// at every scale (a stretch of one peak looks like a shift), but only at
-/// the right scale do the shifts of three or more columns agree on one `t`.
-pub(crate) fn agreement_q16(shifts: &[ColumnShift]) -> u64 {
-    let Some(fit) = fit_translation(shifts) else {
-        return 0;
-    };
-    let (x, y) = (fit.x.to_num::<f32>(), fit.y.to_num::<f32>());
-    shifts
-        .iter()
-        .map(|c| {
-            let e = residual_of(c, x, y) / AGREEMENT_PX;
-            let agreement = (1.0 - e * e).max(0.0);
-            // `as` saturates; agreement ∈ [0, 1].
-            (c.weight_q16 as f32 * agreement) as u64
-        })
-        .sum()
 }
 
 /// `√v` to f32 precision: `micromath`'s estimate (≈ 5 % error) refined by
