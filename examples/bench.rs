@@ -38,7 +38,7 @@ mod firmware {
 
     use hough_heading::{
         estimator, grid, half_turn_steps, reference, rho_bins, row_words, vote_column,
-        vote_column_pair, Angle, Column, Grid, Mode,
+        vote_column_pair, Angle, Column, Grid, Mode, ScaleRange,
     };
 
     use crate::support::room::{room_words, Pose};
@@ -163,8 +163,23 @@ mod firmware {
         });
         black_box(&columns);
 
+        // The same estimate with the scale search (the scenes have s = 1):
+        // its extra cost is the scale search alone.
+        let mut scaled = Estimator::new(Mode::Improved).with_scale_search(ScaleRange::DEFAULT);
+        announce("scaled", second_votes);
+        let scaled = measure(|| scaled.estimate(&reference, &SECOND));
+        let scale_right = scaled.alpha == estimate.alpha
+            && scaled
+                .translation
+                .is_some_and(|t| (t.scale.to_bits() - (1 << 16)).abs() <= 1 << 11);
+
         Outcome {
-            alpha: estimate.alpha,
+            // A wrong scale makes the run fail like a wrong angle.
+            alpha: if scale_right {
+                estimate.alpha
+            } else {
+                estimate.alpha + Angle::HALF_TURN
+            },
             status: support::status_name(estimate.status),
             pin_edges: pin.rising_edges(),
         }
@@ -173,7 +188,7 @@ mod firmware {
     /// The same runs and logs without the library and the grids.
     fn run_baseline() -> Outcome {
         let mut pin = ScopePin::default();
-        for what in ["overhead", "reference", "estimate", "votes"] {
+        for what in ["overhead", "reference", "estimate", "votes", "scaled"] {
             announce(what, black_box(0));
             let Ok(()) = support::timed(&mut pin, || measure(|| black_box(())));
         }

@@ -59,8 +59,10 @@ const SIDES: [usize; 3] = [64, 128, 256];
 pub const TOLERANCE: f64 = 0.10;
 
 /// Budget keys `--check` compares (all "smaller is better").
-const CHECKED: [&str; 9] = [
+const CHECKED: [&str; 11] = [
     "instructions_estimate",
+    "instructions_scale_search",
+    "stack_scaled",
     "instructions_reference",
     "instructions_per_vote",
     "vote_loop_per_vote",
@@ -229,7 +231,7 @@ fn measure_run(
         })
         .collect();
     let benches: Vec<&String> = run.log.iter().filter(|l| l.starts_with("bench ")).collect();
-    if run.status != Some(0) || counts.len() != benches.len() || benches.len() != 4 {
+    if run.status != Some(0) || counts.len() != benches.len() || benches.len() != 5 {
         let why = if run.timed_out {
             "timed out (crash or stack overflow)".to_string()
         } else if run.status == Some(1) {
@@ -272,6 +274,7 @@ fn measure_run(
     let (reference, _, stack_reference) = get("reference");
     let (estimate, votes, stack_estimate) = get("estimate");
     let (vote_loop, _, _) = get("votes");
+    let (scaled, _, stack_scaled) = get("scaled");
     let ratio = |n: u64| {
         if votes == 0 {
             0.0
@@ -288,13 +291,18 @@ fn measure_run(
     values.insert("instructions_reference".into(), json!(reference));
     values.insert("instructions_estimate".into(), json!(estimate));
     values.insert("instructions_vote_loop".into(), json!(vote_loop));
+    values.insert(
+        "instructions_scale_search".into(),
+        json!(scaled.saturating_sub(estimate)),
+    );
     values.insert("instructions_per_vote".into(), json!(ratio(estimate)));
     values.insert("vote_loop_per_vote".into(), json!(ratio(vote_loop)));
     values.insert("stack_reference".into(), json!(stack_reference));
     values.insert("stack_estimate".into(), json!(stack_estimate));
+    values.insert("stack_scaled".into(), json!(stack_scaled));
     values.insert(
         "ram_estimator".into(),
-        json!(state + stack_estimate.max(stack_reference)),
+        json!(state + stack_estimate.max(stack_reference).max(stack_scaled)),
     );
     let alpha = field(result, "alpha_mdeg")
         .and_then(|v| v.parse::<i64>().ok())
@@ -394,9 +402,11 @@ fn row(target: &Target, config: &Config, v: &Map<String, Value>) -> Vec<String> 
             "does not fit: state {state} B + stack > {} KiB RAM",
             target.ram >> 10
         );
-        cells.extend([note, "".into(), "".into(), "".into(), "".into()]);
+        cells.extend([note, "".into(), "".into(), "".into(), "".into(), "".into()]);
     } else {
-        let ram = match (int("state"), int("stack_estimate")) {
+        // The peak stack of either estimate (with or without the scale search).
+        let stack = int("stack_estimate").map(|s| s.max(int("stack_scaled").unwrap_or(0)));
+        let ram = match (int("state"), stack) {
             (Some(state), Some(stack)) => format!("{} B ({state} + {stack})", state + stack),
             _ => "–".into(),
         };
@@ -405,6 +415,7 @@ fn row(target: &Target, config: &Config, v: &Map<String, Value>) -> Vec<String> 
             ratio("instructions_per_vote"),
             ratio("vote_loop_per_vote"),
             count("instructions_reference"),
+            count("instructions_scale_search"),
             ram,
         ]);
     }
@@ -435,6 +446,7 @@ fn table(rows: &[Vec<String>]) -> String {
         "instr. / vote",
         "vote loop instr. / vote",
         "instr. / reference",
+        "scale search, extra instr.",
         "estimator RAM (state + stack)",
         "votes",
         "static RAM",
