@@ -165,9 +165,9 @@ mod firmware {
 
         // The same estimate with the scale search (the scenes have s = 1):
         // its extra cost is the scale search alone.
-        let mut scaled = Estimator::new(Mode::Improved).with_scale_search(ScaleRange::DEFAULT);
+        estimator.set_scale_search(Some(ScaleRange::DEFAULT));
         announce("scaled", second_votes);
-        let scaled = measure(|| scaled.estimate(&reference, &SECOND));
+        let scaled = measure(|| estimator.estimate(&reference, &SECOND));
         let scale_right = scaled.alpha == estimate.alpha
             && scaled
                 .translation

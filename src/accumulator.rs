@@ -91,6 +91,10 @@ pub const SPLIT_VOTE_BITS: u32 = 2;
 /// `1.0` in the Q16 scale factors of [`vote_column_split`].
 pub const UNIT_SCALE_Q16: u32 = 1 << 16;
 
+/// Largest `inv_scale_q16` [`vote_column_split`] uses (2.0, i.e. scales down
+/// to ½); larger values are clamped.
+pub const MAX_INV_SCALE_Q16: u32 = 2 << 16;
+
 /// Adds the votes of every occupied cell of `grid` to `column` for
 /// `θ = 2πk/N`, at `ρ · inv_scale` and split linearly between the two nearest
 /// bins: a cell at position `u = ρ·inv_scale + RHO/2` (bins; bin `b` is
@@ -100,11 +104,14 @@ pub const UNIT_SCALE_Q16: u32 = 1 << 16;
 /// This is the column profile used to locate lines to a fraction of a bin
 /// (translation and scale): unlike [`vote_column`] its centre of mass
 /// follows ρ continuously, so a wall lying on a bin edge is not biased by
-/// half a bin. `inv_scale_q16` (Q16, `1.0` = [`UNIT_SCALE_Q16`]) undoes a
-/// scale `s = 1 / inv_scale` of the scene about the image centre. Votes that
-/// fall outside the column (only when `inv_scale > 1`, far from the centre)
-/// are dropped; bins saturate at `u16::MAX` (never reached below
-/// `inv_scale = 2`: each bin then sees at most `16 · max(W, H) ≤ 32 768`).
+/// half a bin. `inv_scale_q16` (Q16, `1.0` = [`UNIT_SCALE_Q16`], clamped to
+/// [`MAX_INV_SCALE_Q16`]) undoes a scale `s = 1 / inv_scale` of the scene
+/// about the image centre. Votes that fall outside the column (only when
+/// `inv_scale > 1`, far from the centre) are dropped; bins saturate at
+/// `u16::MAX` (never reached: each bin sees at most `16 · max(W, H) ≤ 32 768`).
+///
+/// Positions stay in `i32`: with `inv_scale ≤ 2`, `|cos|, |sin| ≤ 2¹⁵` (Q15)
+/// and `W, H ≤ 2048` every term is below 2²⁸, the sum below 7·10⁸.
 pub fn vote_column_split<
     const W: usize,
     const H: usize,
@@ -118,28 +125,27 @@ pub fn vote_column_split<
     column: &mut Column<RHO>,
 ) {
     let table = &TrigTable::<N>::TABLE;
-    // Q15 × Q16 → Q15; |c|, |s| ≤ 2¹⁵ and inv_scale < 2³² keep it in i64.
-    let scaled = |v: i32| ((i64::from(v) * i64::from(inv_scale_q16)) >> 16) as i32;
+    let inv_scale = i64::from(inv_scale_q16.min(MAX_INV_SCALE_Q16));
+    // Q15 × Q16 → Q15, |result| ≤ 2¹⁶.
+    let scaled = |v: i32| ((i64::from(v) * inv_scale) >> 16) as i32;
     let (c, s) = (scaled(table.cos(k)), scaled(table.sin(k)));
+    let step = 2 * c;
     let one = 1u16 << SPLIT_VOTE_BITS;
     let fraction_shift = 16 - SPLIT_VOTE_BITS;
-    let fraction_mask = (1i64 << SPLIT_VOTE_BITS) - 1;
+    let fraction_mask = (1i32 << SPLIT_VOTE_BITS) - 1;
     // Q16 position of column 0 of row 0, plus half a share so that `f`
     // rounds to the nearest quarter (truncating would move every line by
-    // −⅛ bin). i64: the caller may pass any inv_scale.
-    let origin = (i64::from(RHO as u32 / 2) << 16) + (1 << (fraction_shift - 1))
-        - (W as i64 - 1) * i64::from(c);
-    let mut y2 = H as i64 - 1;
+    // −⅛ bin).
+    let row_start = ((RHO as i32 / 2) << 16) + (1 << (fraction_shift - 1)) - (W as i32 - 1) * c;
+    let mut y2 = H as i32 - 1;
     for words in grid.words() {
-        let row_base = origin + y2 * i64::from(s);
-        for (w, &word) in words.iter().enumerate() {
+        let mut word_base = row_start + y2 * s;
+        for &word in words {
             let mut bits = word;
             while bits != 0 {
-                let col = (32 * w as i64) + i64::from(bits.trailing_zeros());
-                let u = row_base + 2 * col * i64::from(c);
-                let bin = u >> 16;
+                let u = word_base + bits.trailing_zeros() as i32 * step;
                 let f = ((u >> fraction_shift) & fraction_mask) as u16;
-                if let Ok(b) = usize::try_from(bin) {
+                if let Ok(b) = usize::try_from(u >> 16) {
                     if let Some(a) = column.get_mut(b) {
                         *a = a.saturating_add(one - f);
                     }
@@ -149,6 +155,7 @@ pub fn vote_column_split<
                 }
                 bits &= bits - 1;
             }
+            word_base += 32 * step;
         }
         y2 -= 2;
     }

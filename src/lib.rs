@@ -19,7 +19,7 @@ mod trig;
 
 pub use accumulator::{
     max_votes_per_bin, vote_column, vote_column_pair, vote_column_split, Accumulator, Column,
-    SPLIT_VOTE_BITS, UNIT_SCALE_Q16,
+    MAX_INV_SCALE_Q16, SPLIT_VOTE_BITS, UNIT_SCALE_Q16,
 };
 pub use angle::Angle;
 pub use config::{half_turn_steps, recommended_n_theta, rho_bins, row_words};

@@ -105,20 +105,14 @@ impl<
     }
 
     fn set_thresholds(&mut self, thresholds: Thresholds) {
-        let mut improved = Estimator::new(Mode::Improved).with_thresholds(thresholds);
-        if let Some(range) = self.improved.scale_search() {
-            improved = improved.with_scale_search(range);
-        }
-        self.improved = improved;
+        let scale = self.improved.scale_search();
+        self.improved = Estimator::new(Mode::Improved).with_thresholds(thresholds);
+        self.improved.set_scale_search(scale);
         self.paper = Estimator::new(Mode::Paper).with_thresholds(thresholds);
     }
 
     fn set_scale_search(&mut self, range: Option<ScaleRange>) {
-        let improved = Estimator::new(Mode::Improved).with_thresholds(self.improved.thresholds());
-        self.improved = match range {
-            Some(range) => improved.with_scale_search(range),
-            None => improved,
-        };
+        self.improved.set_scale_search(range);
     }
 
     fn rasterize(&mut self, view: View, scan: &Scan<'_>, raster: &Raster) -> ScanStats {
