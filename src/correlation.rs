@@ -160,7 +160,7 @@ fn dot_u32(a: &[u16], b: &[u16]) -> u32 {
 fn dot_u64(a: &[u16], b: &[u16]) -> u64 {
     a.iter()
         .zip(b)
-        .map(|(&x, &y)| u64::from(x) * u64::from(y))
+        .map(|(&x, &y)| u64::from(u32::from(x) * u32::from(y)))
         .sum()
 }
 

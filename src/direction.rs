@@ -130,9 +130,12 @@ pub(crate) fn match_curve<const RHO: usize>(
     };
     let p_sq: u64 = profile_body
         .iter()
-        .map(|&v| u64::from(v) * u64::from(v))
+        .map(|&v| u64::from(u32::from(v) * u32::from(v)))
         .sum();
-    let q_sq: u64 = column.iter().map(|&v| u64::from(v) * u64::from(v)).sum();
+    let q_sq: u64 = column
+        .iter()
+        .map(|&v| u64::from(u32::from(v) * u32::from(v)))
+        .sum();
     let norm = isqrt_u128(u128::from(p_sq) * u128::from(q_sq));
     if norm == 0 {
         return none;
@@ -152,23 +155,24 @@ pub(crate) fn match_curve<const RHO: usize>(
         let Some(q) = column.get(q_lo..=q_lo + (hi - lo)) else {
             return 0;
         };
+        // Partial sums of DOT_CHUNK products stay in u32 (one 32-bit
+        // multiply-add a bin on every target, no 64-bit multiply).
         if mirrored {
             // P'[lo..=hi] is P[RHO − hi ..= RHO − lo] reversed.
             match profile.get(RHO - hi..=RHO - lo) {
                 Some(p) => p
-                    .iter()
-                    .rev()
-                    .zip(q)
-                    .map(|(&x, &y)| u64::from(x) * u64::from(y))
+                    .rchunks(DOT_CHUNK)
+                    .zip(q.chunks(DOT_CHUNK))
+                    .map(|(p, q)| u64::from(dot_u32(p.iter().rev(), q)))
                     .sum(),
                 None => 0,
             }
         } else {
             match profile.get(lo..=hi) {
                 Some(p) => p
-                    .iter()
-                    .zip(q)
-                    .map(|(&x, &y)| u64::from(x) * u64::from(y))
+                    .chunks(DOT_CHUNK)
+                    .zip(q.chunks(DOT_CHUNK))
+                    .map(|(p, q)| u64::from(dot_u32(p.iter(), q)))
                     .sum(),
                 None => 0,
             }
@@ -213,6 +217,17 @@ pub(crate) fn match_curve<const RHO: usize>(
         },
         curve,
     )
+}
+
+/// Products per `u32` partial sum of the profile match:
+/// `256 · 255 · 65 535 < 2³²`.
+const DOT_CHUNK: usize = 256;
+
+/// `Σ p·q` over at most [`DOT_CHUNK`] pairs, which cannot overflow `u32`.
+fn dot_u32<'a>(p: impl Iterator<Item = &'a u8>, q: &[u16]) -> u32 {
+    p.zip(q)
+        .map(|(&x, &y)| u32::from(x) * u32::from(y))
+        .fold(0u32, u32::wrapping_add)
 }
 
 /// First and last index holding a non-zero value.

@@ -507,15 +507,9 @@ impl<
                 &direct_shifts
             }),
             Some(range) => {
-                let unit_shifts = if mirrored {
-                    &flipped_shifts
-                } else {
-                    &direct_shifts
-                };
                 let (shifts, scale_q16) = search_scale::<W, H, RW, N, HALF, RHO>(
                     grid,
                     &pose_columns,
-                    unit_shifts,
                     PoseSearch {
                         range,
                         mirrored,
@@ -576,10 +570,11 @@ struct PoseSearch {
 /// the chosen scale (they measure `n·t / s`) and the scale. `column` is
 /// scratch.
 ///
-/// The coarse evaluations search each column's shift near its shift at
-/// `s = 1` (`unit_shifts`, from the direction test): re-voting at `ρ / s`
-/// moves a line at `ρ'` in image 2 by `(1/s − 1)·ρ'`, so the window is
-/// `|1/s − 1|·RHO/2 + 3` bins, at most the full `max_shift`.
+/// The coarse evaluations search the whole shift window: a window around
+/// the shifts found at `s = 1` was measured to lose corridors (at the wrong
+/// scale the two walls of a column cannot both align, and the `s = 1` match
+/// may lock one wall onto the other, a jump of their separation; 10 % of
+/// 256² corridors).
 ///
 /// Not inlined: its locals stay off the stack of estimates without the
 /// scale search.
@@ -594,7 +589,6 @@ fn search_scale<
 >(
     grid: &Grid<W, H, RW>,
     columns: &[PoseColumn<'_, RHO>],
-    unit_shifts: &[ColumnShift],
     search: PoseSearch,
     column: &mut Column<RHO>,
 ) -> (Vec<ColumnShift, PROFILE_COLUMNS>, u32) {
@@ -608,19 +602,11 @@ fn search_scale<
         let inv_scale_q16 =
             ((1u64 << 32) / u64::from(s_q16.max(1))).min(u64::from(u32::MAX)) as u32;
         shifts.clear();
-        // |1/s − 1|·RHO/2 + 3 bins (Q16 arithmetic), for the coarse windows.
-        let stretch = (u64::from(inv_scale_q16.abs_diff(UNIT_SCALE_Q16)) * (RHO as u64 / 2)) >> 16;
-        let coarse_radius = (stretch as usize + 3).min(search.max_shift);
         let mut curves = [MatchCurve::default(); PROFILE_COLUMNS];
-        for (((pose, centre), unit), curve) in columns
-            .iter()
-            .zip(centres)
-            .zip(unit_shifts)
-            .zip(curves.iter_mut())
-        {
+        for ((pose, centre), curve) in columns.iter().zip(centres).zip(curves.iter_mut()) {
             vote_profile_column::<W, H, RW, N, HALF, RHO>(grid, pose.m, inv_scale_q16, column);
             let (centre, radius) = match window {
-                Window::Full => ((unit.shift_q16 + (1 << 15)) >> 16, coarse_radius),
+                Window::Full => (0, search.max_shift),
                 Window::Near => (centre, radius),
             };
             let (m, c) = match_curve(pose.counts, column, centre, radius, search.mirrored);
