@@ -143,7 +143,70 @@ pub(crate) fn match_curve<const RHO: usize>(
     // No shift beyond the column can overlap anyway.
     let radius = radius.min(RHO) as isize;
     let centre = (centre as isize).clamp(-(RHO as isize), RHO as isize);
-    let dot = |s: isize| -> u64 {
+    // Shifts that can overlap at all.
+    let s_min = (ql as isize - pu as isize).max(centre - radius);
+    let s_max = (qu as isize - pl as isize).min(centre + radius);
+    let overlap = Overlap {
+        profile: (pl, pu),
+        column: (ql, qu),
+        mirrored,
+    };
+    let mut best = (0u64, 0isize);
+    for s in s_min..=s_max {
+        let d = overlap.dot(profile, column, s);
+        if d > best.0 {
+            best = (d, s);
+        }
+    }
+    let (peak, s) = best;
+    if peak == 0 {
+        return none;
+    }
+    // The dot products at s − 2 ..= s + 2 (the middle one is the peak).
+    let mut near = [0u64; 2 * CURVE_RADIUS + 1];
+    for (k, d) in near.iter_mut().enumerate() {
+        *d = overlap.dot(profile, column, s + k as isize - CURVE_RADIUS as isize);
+    }
+    let (before, after) = (near[CURVE_RADIUS - 1] as i64, near[CURVE_RADIUS + 1] as i64);
+    let curvature = before - 2 * peak as i64 + after;
+    let offset = if curvature < 0 {
+        ((before - after) << 15)
+            .checked_div(curvature)
+            .unwrap_or(0)
+            .clamp(-(1 << 15), 1 << 15)
+    } else {
+        0
+    };
+    let curve = MatchCurve {
+        best: s as i32,
+        scores_q16: near.map(|d| normalised(d, norm)),
+    };
+    (
+        ProfileMatch {
+            score_q16: normalised(peak, norm),
+            shift_q16: ((s as i64) << 16).saturating_add(offset) as i32,
+        },
+        curve,
+    )
+}
+
+/// Where a profile (or its mirror) and a column hold votes.
+struct Overlap {
+    /// Support of `P` (or `P'`), bins.
+    profile: (usize, usize),
+    /// Support of `Q`, bins.
+    column: (usize, usize),
+    /// `P'[b] = P[RHO − b]` instead of `P`.
+    mirrored: bool,
+}
+
+impl Overlap {
+    /// `Σ_b P[b]·Q[b + s]` (or with `P'`) over the bins where both hold
+    /// votes; 0 when they do not overlap. Not inlined: the match calls it
+    /// from several places and each inlined copy grew the caller's stack.
+    #[inline(never)]
+    fn dot<const RHO: usize>(&self, profile: &[u8; RHO], column: &Column<RHO>, s: isize) -> u64 {
+        let ((pl, pu), (ql, qu)) = (self.profile, self.column);
         // b ∈ [pl, pu] with b + s ∈ [ql, qu].
         let lo = (pl as isize).max(ql as isize - s);
         let hi = (pu as isize).min(qu as isize - s);
@@ -157,7 +220,7 @@ pub(crate) fn match_curve<const RHO: usize>(
         };
         // Partial sums of DOT_CHUNK products stay in u32 (one 32-bit
         // multiply-add a bin on every target, no 64-bit multiply).
-        if mirrored {
+        if self.mirrored {
             // P'[lo..=hi] is P[RHO − hi ..= RHO − lo] reversed.
             match profile.get(RHO - hi..=RHO - lo) {
                 Some(p) => p
@@ -177,46 +240,7 @@ pub(crate) fn match_curve<const RHO: usize>(
                 None => 0,
             }
         }
-    };
-    // Shifts that can overlap at all.
-    let s_min = (ql as isize - pu as isize).max(centre - radius);
-    let s_max = (qu as isize - pl as isize).min(centre + radius);
-    let mut best = (0u64, 0isize);
-    for s in s_min..=s_max {
-        let d = dot(s);
-        if d > best.0 {
-            best = (d, s);
-        }
     }
-    let (peak, s) = best;
-    if peak == 0 {
-        return none;
-    }
-    let (before, after) = (dot(s - 1) as i64, dot(s + 1) as i64);
-    let curvature = before - 2 * peak as i64 + after;
-    let offset = if curvature < 0 {
-        ((before - after) << 15)
-            .checked_div(curvature)
-            .unwrap_or(0)
-            .clamp(-(1 << 15), 1 << 15)
-    } else {
-        0
-    };
-    let normalised = |d: u64| ((u128::from(d) << 16) / u128::from(norm)).min(1 << 16) as u32;
-    let mut curve = MatchCurve {
-        best: s as i32,
-        scores_q16: [0; 2 * CURVE_RADIUS + 1],
-    };
-    for (k, score) in curve.scores_q16.iter_mut().enumerate() {
-        *score = normalised(dot(s + k as isize - CURVE_RADIUS as isize));
-    }
-    (
-        ProfileMatch {
-            score_q16: normalised(peak),
-            shift_q16: ((s as i64) << 16).saturating_add(offset) as i32,
-        },
-        curve,
-    )
 }
 
 /// Products per `u32` partial sum of the profile match:
@@ -237,6 +261,16 @@ fn support<T: Copy + Into<u32>>(values: &[T]) -> Option<(usize, usize)> {
     Some((first, last))
 }
 
+/// `d / norm` in Q16, at most 1 (`d ≤ norm` by Cauchy–Schwarz). Not
+/// inlined, like [`isqrt_u128`]: their `u128` temporaries would otherwise
+/// sit in the frame of every caller.
+#[inline(never)]
+fn normalised(d: u64, norm: u64) -> u32 {
+    ((u128::from(d) << 16) / u128::from(norm.max(1))).min(1 << 16) as u32
+}
+
+/// `⌊√v⌋`.
+#[inline(never)]
 pub(crate) fn isqrt_u128(v: u128) -> u64 {
     v.isqrt() as u64
 }
