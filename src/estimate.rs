@@ -176,8 +176,11 @@ pub struct Estimate {
     /// Up to [`MAX_CANDIDATES`] rotations, strongest first; `alpha` is one of
     /// them (the first, unless a prior picked another).
     pub candidates: Vec<Candidate, MAX_CANDIDATES>,
-    /// Translation `t` in pixels (improved mode, when the rotation is
-    /// resolved), `None` otherwise.
+    /// The rest of the pose for `alpha`: translation `t` in pixels, scale
+    /// (1 unless [`Estimator::with_scale_search`]), residual and the
+    /// unobservable direction, if any. Improved mode only; `None` when the
+    /// rotation is not resolved or a prior picked another candidate than the
+    /// one the translation was fitted for.
     pub translation: Option<Translation>,
 }
 
@@ -207,8 +210,10 @@ impl Estimate {
 /// State: two ρ columns (`4·RHO` bytes) and the signature of the current
 /// image (`4·HALF + 2` bytes): 1.8 KiB at 128², `N` = 360. Work per estimate: the
 /// votes of `HALF` columns (occupied cells × `HALF`), `HALF²` multiply-adds of
-/// the correlation, and `2 × PROFILE_COLUMNS` column votes and profile
-/// matches per direction test (improved mode).
+/// the correlation, and per direction test (improved mode) `PROFILE_COLUMNS`
+/// split-vote columns and twice as many profile matches, which also give the
+/// translation. The scale search, when on, adds up to 26 × `PROFILE_COLUMNS`
+/// column votes and matches ([`ScaleRange`]).
 #[derive(Clone, Debug)]
 pub struct Estimator<
     const W: usize,

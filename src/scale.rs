@@ -17,8 +17,10 @@ use crate::{Error, Score};
 /// [`PROFILE_COLUMNS`](crate::PROFILE_COLUMNS)) and matches them; a search
 /// makes at most `MAX_COARSE_STEPS + 1 + 9 = 26` evaluations (17 + 9 for the
 /// default range 0.8–1.25), the coarse ones over the whole shift window.
-/// Below `s ≈ 0.72` votes far from the centre may fall outside the column
-/// (they are dropped, the estimate degrades gracefully).
+/// Below `s` = 1 the re-voted columns stretch by `1/s`: lines farther than
+/// `s · RHO/2` pixels from the centre fall outside them and are dropped (a
+/// scene filling a 128² image, `RHO` = 256, loses its outermost lines below
+/// `s ≈ 0.72`); the estimate degrades, it does not fail.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ScaleRange {

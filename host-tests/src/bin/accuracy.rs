@@ -40,8 +40,9 @@ use host_tests::eval::{
 };
 use host_tests::scene::{render_pair, Damage, SceneKind, Transform};
 use hough_heading::{
-    half_turn_steps, match_profile, rho_bins, row_words, vote_column, Angle, ColumnShift,
+    half_turn_steps, match_profile, rho_bins, row_words, vote_column_split, Angle, ColumnShift,
     Estimator, Grid, Mode, Reference, ScaleRange, Score, Status, Thresholds, TrigTable,
+    UNIT_SCALE_Q16,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -547,81 +548,11 @@ fn column_shifts<const W: usize, const RW: usize, const RHO: usize>(
         let theta = Angle::from_steps_q16((profile.theta as i64) << 16, N_THETA);
         let m = (theta + alpha).nearest_step(N_THETA);
         let mut column = [0u16; RHO];
-        vote_column::<W, W, RW, N_THETA, RHO>(grid, m % HALF, &mut column);
+        vote_column_split::<W, W, RW, N_THETA, RHO>(grid, m % HALF, UNIT_SCALE_Q16, &mut column);
         if m >= HALF {
             column[1..].reverse();
         }
         let matched = match_profile(&profile.counts, &column, max_shift, false);
-        shifts.push(ColumnShift {
-            normal_q15: (table.cos(m), table.sin(m)),
-            shift_q16: matched.shift_q16,
-            weight_q16: ((u64::from(matched.score_q16) * ((strength << 16) / strongest)) >> 16)
-                as u32,
-        });
-    }
-    shifts
-}
-
-/// One column of `grid` at `θ_k` (any `k` over the full circle) with each
-/// vote split linearly between the two bins around its exact fixed-point ρ,
-/// in quarter votes (so a line lying exactly on a rounding edge `j + ½` puts
-/// half its weight in each neighbour instead of all of it in `j + 1`).
-fn interpolated_column<const W: usize, const RW: usize, const RHO: usize>(
-    grid: &Grid<W, W, RW>,
-    k: usize,
-) -> [u16; RHO] {
-    let table = &TrigTable::<N_THETA>::TABLE;
-    let (c, s) = (i64::from(table.cos(k)), i64::from(table.sin(k)));
-    let mut column = [0u16; RHO];
-    for row in 0..W {
-        for col in 0..W {
-            if !grid.get(col, row) {
-                continue;
-            }
-            let x2 = 2 * col as i64 - (W as i64 - 1);
-            let y2 = (W as i64 - 1) - 2 * row as i64;
-            // ρ in Q16 (doubled coordinates × Q15), then in bins.
-            let p = (x2 * c + y2 * s) as f64 / 65536.0 + (RHO / 2) as f64;
-            let j = p.floor();
-            let upper = ((p - j) * 4.0).round() as u16;
-            let j = j as usize;
-            if let (Some(_), Some(_)) = (column.get(j), column.get(j + 1)) {
-                column[j] += 4 - upper;
-                column[j + 1] += upper;
-            }
-        }
-    }
-    column
-}
-
-/// The column shifts of [`column_shifts`], with both the reference profile
-/// and the column of the second image voted by [`interpolated_column`].
-fn interpolated_shifts<const W: usize, const RW: usize, const RHO: usize>(
-    reference: &Reference<W, W, HALF, RHO>,
-    first: &Grid<W, W, RW>,
-    grid: &Grid<W, W, RW>,
-    alpha: Angle,
-) -> Vec<ColumnShift> {
-    let table = &TrigTable::<N_THETA>::TABLE;
-    let strongest = reference
-        .profiles()
-        .first()
-        .map_or(1, |p| u64::from(reference.signature().peak(p.theta)).max(1));
-    let max_shift = (Thresholds::DEFAULT.max_shift_fraction * RHO as i32).to_num::<usize>();
-    let mut shifts = Vec::new();
-    for profile in reference.profiles() {
-        let strength = u64::from(reference.signature().peak(profile.theta));
-        if 10 * strength < 3 * strongest {
-            continue;
-        }
-        let own = interpolated_column::<W, RW, RHO>(first, profile.theta);
-        let max = own.iter().copied().max().unwrap_or(0);
-        let shift = (16 - max.leading_zeros()).saturating_sub(8);
-        let counts: [u8; RHO] = core::array::from_fn(|b| (own[b] >> shift) as u8);
-        let theta = Angle::from_steps_q16((profile.theta as i64) << 16, N_THETA);
-        let m = (theta + alpha).nearest_step(N_THETA);
-        let column = interpolated_column::<W, RW, RHO>(grid, m);
-        let matched = match_profile(&counts, &column, max_shift, false);
         shifts.push(ColumnShift {
             normal_q15: (table.cos(m), table.sin(m)),
             shift_q16: matched.shift_q16,
@@ -732,10 +663,7 @@ fn experiment_translation(trials: usize, threads: usize) -> String {
          exact square root. Errors over trials with the rotation right (either member of α, α + π \
          for the symmetric corridors), restricted to the observable component when an \
          unobservable direction is reported; \"off the walls\": angle between the reported \
-         direction and the walls. \"interpolated profiles\": the 2 × 4 profile columns voted with \
-         each vote split linearly between its two nearest bins (quarter votes), which removes the \
-         half-bin bias of lines lying exactly on a rounding edge (axis-parallel walls of a \
-         Manhattan room in an even-sized image).\n\n\
+         direction and the walls.\n\n\
          | scenes | damage | fit | t median px | t p90 px | unobservable reported | off the walls: median / p90 / max ° |\n\
          |---|---|---|---|---|---|---|\n",
     );
@@ -782,20 +710,9 @@ fn experiment_translation(trials: usize, threads: usize) -> String {
                     estimate.alpha,
                 ))
                 .map(|t| translation_error(t, &truth));
-                let interpolated = fit_exact(&interpolated_shifts::<W, RW, RHO>(
-                    &reference,
-                    &g1,
-                    &g2,
-                    estimate.alpha,
-                ))
-                .map(|t| translation_error(t, &truth));
-                Some([library, exact, interpolated])
+                Some([library, exact])
             });
-            let fits = [
-                "library",
-                "exact sqrt",
-                "exact sqrt + interpolated profiles",
-            ];
+            let fits = ["library", "exact sqrt"];
             for (k, fit) in fits.iter().enumerate() {
                 let fits: Vec<(f64, bool, f64)> =
                     results.iter().flatten().filter_map(|r| r[k]).collect();

@@ -213,8 +213,8 @@ fn table_page(table: &str) -> String {
          direction test give the column shifts; the fit adds little). *scale search, extra instr.*: \
          the same estimate with `with_scale_search(ScaleRange::DEFAULT)` minus the plain one (its \
          scale is checked to be 1 ± 3 %).\n\
-         - *estimator RAM*: `size_of` the estimator and the reference, plus the peak stack of either \
-         estimate call: the lowest stack address written during it (the plugin watches every store), below the \
+         - *estimator RAM*: `size_of` the estimator and the reference, plus the peak stack of the \
+         estimate call (and how much more the estimate with the scale search needs): the lowest stack address written during it (the plugin watches every store), below the \
          stack pointer at the call. The grids are not counted (they are inputs, here in flash).\n\
          - *static RAM*: `.data + .bss` of the whole firmware (logger, runtime); the library has none. \
          *library flash*: flash of the firmware minus the same firmware built without calling the \

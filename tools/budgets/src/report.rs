@@ -302,7 +302,7 @@ fn measure_run(
     values.insert("stack_scaled".into(), json!(stack_scaled));
     values.insert(
         "ram_estimator".into(),
-        json!(state + stack_estimate.max(stack_reference).max(stack_scaled)),
+        json!(state + stack_estimate.max(stack_reference)),
     );
     let alpha = field(result, "alpha_mdeg")
         .and_then(|v| v.parse::<i64>().ok())
@@ -404,10 +404,16 @@ fn row(target: &Target, config: &Config, v: &Map<String, Value>) -> Vec<String> 
         );
         cells.extend([note, "".into(), "".into(), "".into(), "".into(), "".into()]);
     } else {
-        // The peak stack of either estimate (with or without the scale search).
-        let stack = int("stack_estimate").map(|s| s.max(int("stack_scaled").unwrap_or(0)));
-        let ram = match (int("state"), stack) {
-            (Some(state), Some(stack)) => format!("{} B ({state} + {stack})", state + stack),
+        // The plain estimate's peak stack, and how much more the scale
+        // search needs.
+        let ram = match (int("state"), int("stack_estimate")) {
+            (Some(state), Some(stack)) => {
+                let extra = int("stack_scaled").map_or(0, |s| s.saturating_sub(stack));
+                format!(
+                    "{} B ({state} + {stack}; scale search +{extra})",
+                    state + stack
+                )
+            }
             _ => "–".into(),
         };
         cells.extend([
