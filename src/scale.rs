@@ -124,14 +124,28 @@ pub(crate) fn search(range: ScaleRange, mut score: impl FnMut(u32, Window) -> u6
         score(s.saturating_sub(half).max(min), Window::Near) as i64,
         score((s + half).min(max), Window::Near) as i64,
     );
+    // Scores are at most a few 2¹⁶ (Q16 weights of ≤ 4 columns) and the
+    // spacing below 2¹⁶, so nothing here comes near the i64 range; the
+    // checked and saturating forms keep that free of panic paths anyway
+    // (`max`/`min` rather than `clamp`, whose bounds the compiler cannot see
+    // are ordered).
     let spacing = i64::from(half);
-    let curvature = before - 2 * value as i64 + after;
+    let curvature = before
+        .saturating_sub((value as i64).saturating_mul(2))
+        .saturating_add(after);
     let offset = if curvature < 0 {
-        ((before - after) * spacing / (2 * curvature)).clamp(-spacing, spacing)
+        (before - after)
+            .saturating_mul(spacing)
+            .checked_div(curvature.saturating_mul(2))
+            .unwrap_or(0)
+            .max(-spacing)
+            .min(spacing)
     } else {
         0
     };
-    let refined = (i64::from(s) + offset).clamp(i64::from(min), i64::from(max)) as u32;
+    let refined = (i64::from(s) + offset)
+        .max(i64::from(min))
+        .min(i64::from(max)) as u32;
     // The caller's last shifts must belong to the returned scale.
     score(refined, Window::Near);
     refined

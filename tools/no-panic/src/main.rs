@@ -27,10 +27,11 @@
 
 use core::hint::black_box;
 use hough_heading::{
-    fit_translation, match_profile, max_votes_per_bin, paper_asymmetry, range_percentile,
-    recommended_n_theta, rho_bins, row_words, vote_column, Accumulator, Angle, Column, ColumnShift,
-    ColumnStats, Correlation, Estimator, Grid, Mode, Peak, PeakKind, Prior, Raster, Reference,
-    Scan, ScanStats, Score, SensorOffset, Signature, Thresholds,
+    fit_translation, match_profile, match_profile_near, max_votes_per_bin, paper_asymmetry,
+    range_percentile, recommended_n_theta, rho_bins, row_words, vote_column, vote_column_split,
+    Accumulator, Angle, Column, ColumnShift, ColumnStats, Correlation, Estimator, Grid, Mode,
+    Peak, PeakKind, Prior, Raster, Reference, ScaleRange, Scan, ScanStats, Score, SensorOffset,
+    Signature, Thresholds,
 };
 
 /// Any value of `T`, as far as the optimiser knows.
@@ -98,9 +99,20 @@ fn entry_estimator<
     if opaque(false) {
         e = e.with_thresholds(opaque_thresholds());
     }
+    if opaque(false) {
+        if let Ok(range) = ScaleRange::new(opaque(Score::ONE), opaque(Score::ONE)) {
+            e = e.with_scale_search(range);
+        }
+        e.set_scale_search(opaque(Some(ScaleRange::DEFAULT)));
+    }
+    opaque(e.scale_search());
+    opaque(e.thresholds());
     let reference = e.reference(g1);
     let estimate = e.estimate(&reference, g2);
     opaque(estimate.half_turn.margin());
+    if let Some(t) = &estimate.translation {
+        opaque(t.column_shift_q16((opaque(0), opaque(0))));
+    }
     opaque(&estimate);
     opaque(e.estimate_pair(g1, g2));
     let prior = Prior {
@@ -153,6 +165,7 @@ fn entry_votes<
 ) {
     let mut column: Column<RHO> = opaque([0u16; RHO]);
     vote_column::<W, H, RW, N, RHO>(grid, opaque(0), &mut column);
+    vote_column_split::<W, H, RW, N, RHO>(grid, opaque(0), opaque(0), &mut column);
     opaque(ColumnStats::of(&column, opaque_kind()));
     let accumulator = Accumulator::<HALF, RHO>::vote::<W, H, RW, N>(grid);
     opaque(accumulator.get(opaque(0), opaque(0)));
@@ -192,6 +205,13 @@ fn entry_matching<const HALF: usize, const RHO: usize>() {
     let profile = opaque([0u8; RHO]);
     let column = opaque([0u16; RHO]);
     opaque(match_profile(&profile, &column, opaque(0), opaque(false)));
+    opaque(match_profile_near(
+        &profile,
+        &column,
+        opaque(0),
+        opaque(0),
+        opaque(false),
+    ));
 }
 
 #[inline(never)]
