@@ -2,10 +2,11 @@
 //!
 //! Two 128² outlines of the same room are rasterised at compile time into
 //! `static` grids (flash, no RAM): the second is turned by 30° counter-clockwise
-//! and shifted by a few cells. The estimator finds the rotation, a GPIO pin is
-//! high during the estimate (for a scope), the result goes to the `defmt` log,
-//! and the program exits through semihosting: status 0 when the estimate is
-//! within 1° of 30°, 1 otherwise.
+//! and shifted by (3, −2) cells. The estimator finds the rotation and the
+//! translation, a GPIO pin is high during the estimate (for a scope), the
+//! result goes to the `defmt` log, and the program exits through semihosting:
+//! status 0 when the rotation is within 1° of 30° and the translation within
+//! ½ cell of (3, −2), 1 otherwise.
 //!
 //! ```text
 //! cargo build --release --example two_grids --target thumbv7em-none-eabihf
@@ -23,7 +24,7 @@ mod support;
 
 #[cfg(target_os = "none")]
 mod firmware {
-    use hough_heading::{estimator, grid, row_words, Grid, Mode};
+    use hough_heading::{estimator, grid, row_words, Grid, Mode, Score};
 
     use crate::support::room::{room_words, Pose};
     use crate::support::{self, ScopePin};
@@ -36,6 +37,10 @@ mod firmware {
     const TURN_DEGREES: i32 = 30;
     /// Largest accepted error, millidegrees.
     const TOLERANCE_MDEG: i32 = 1_000;
+    /// The shift between the grids, cells (x right, y up).
+    const SHIFT: (f64, f64) = (3.0, -2.0);
+    /// Largest accepted translation error per axis, millicells.
+    const TOLERANCE_MCELLS: i32 = 500;
 
     type Estimator = estimator!(SIDE, SIDE, N_THETA);
 
@@ -46,8 +51,8 @@ mod firmware {
     static SECOND: grid!(SIDE, SIDE) =
         Grid::from_words(room_words::<SIDE, SIDE, { row_words(SIDE) }>(Pose {
             degrees: TURN_DEGREES as f64,
-            dx: 3.0,
-            dy: -2.0,
+            dx: SHIFT.0,
+            dy: SHIFT.1,
         }));
 
     #[cfg_attr(target_arch = "arm", cortex_m_rt::entry)]
@@ -75,7 +80,25 @@ mod firmware {
             support::status_name(estimate.status),
             pin.rising_edges()
         );
-        if error.abs() <= TOLERANCE_MDEG && pin.rising_edges() == 1 {
+        // Q16.16 cells to millicells.
+        let millicells = |v: Score| ((i64::from(v.to_bits()) * 1000) >> 16) as i32;
+        let (tx, ty) = estimate
+            .translation
+            .map_or((i32::MIN, i32::MIN), |t| (millicells(t.x), millicells(t.y)));
+        let (ex, ey) = (
+            tx.saturating_sub((SHIFT.0 * 1000.0) as i32),
+            ty.saturating_sub((SHIFT.1 * 1000.0) as i32),
+        );
+        defmt::println!(
+            "t = ({=i32}, {=i32}) millicells (expected ({=i32}, {=i32}))",
+            tx,
+            ty,
+            (SHIFT.0 * 1000.0) as i32,
+            (SHIFT.1 * 1000.0) as i32
+        );
+        let translation_right = ex.unsigned_abs() <= TOLERANCE_MCELLS as u32
+            && ey.unsigned_abs() <= TOLERANCE_MCELLS as u32;
+        if error.abs() <= TOLERANCE_MDEG && translation_right && pin.rising_edges() == 1 {
             defmt::println!("two_grids: PASS");
             support::exit(0)
         }
