@@ -32,7 +32,7 @@ use host_tests::cli;
 use hough_heading::{
     fit_translation, match_profile, paper_asymmetry, range_percentile, rho_bins, row_words, Angle,
     ColumnShift, ColumnStats, Correlation, Estimate, Estimator, Grid, Mode, PeakKind, Prior,
-    Raster, Reference, Scan, Score, SensorOffset, Signature, Status, Thresholds,
+    Raster, Reference, ScaleRange, Scan, Score, SensorOffset, Signature, Status, Thresholds,
 };
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
@@ -79,8 +79,21 @@ fn fuzz<S: Strategy>(
     }
 }
 
-/// The invariants of every [`Estimate`] (as in `adversarial.rs`).
-fn check(e: &Estimate, prior: bool) -> Result<(), TestCaseError> {
+/// The invariants of every [`Estimate`] (as in `adversarial.rs`), and of its
+/// pose: the scale inside the searched range (exactly 1 without a search), a
+/// residual ≥ 0, an unobservable direction of unit length.
+fn check(e: &Estimate, prior: bool, scale: Option<ScaleRange>) -> Result<(), TestCaseError> {
+    if let Some(t) = &e.translation {
+        match scale {
+            Some(r) => prop_assert!(r.min() <= t.scale && t.scale <= r.max(), "{e:?}"),
+            None => prop_assert_eq!(t.scale, Score::ONE),
+        }
+        prop_assert!(t.residual >= Score::ZERO, "{e:?}");
+        if let Some((x, y)) = t.unobservable {
+            let norm = x.to_num::<f64>().hypot(y.to_num::<f64>());
+            prop_assert!((norm - 1.0).abs() < 1e-3, "{e:?}");
+        }
+    }
     let unit = Score::ZERO..=Score::ONE;
     prop_assert!(unit.contains(&e.confidence), "{e:?}");
     prop_assert!((-Score::ONE..=Score::ONE).contains(&e.correlation), "{e:?}");
@@ -113,6 +126,16 @@ fn thresholds() -> impl Strategy<Value = Thresholds> {
             max_shift_fraction: Score::from_bits(s),
         }
     })
+}
+
+/// No scale search, or a search over any valid range.
+fn scale_range() -> impl Strategy<Value = Option<ScaleRange>> {
+    proptest::option::of(
+        (1i32 << 15..=2 << 16, 1i32 << 15..=2 << 16).prop_map(|(a, b)| {
+            let (min, max) = (Score::from_bits(a.min(b)), Score::from_bits(a.max(b)));
+            ScaleRange::new(min, max).expect("0.5 ≤ min ≤ max ≤ 2")
+        }),
+    )
 }
 
 fn mode() -> impl Strategy<Value = Mode> {
@@ -174,11 +197,16 @@ fn estimator_on_grids<
     sparse: u32,
     seed: u8,
 ) {
-    let run = |pair: (Grid<W, H, RW>, Grid<W, H, RW>), m, t, p: Option<Prior>| {
+    let run = |pair: (Grid<W, H, RW>, Grid<W, H, RW>), m, t, p: Option<Prior>, s| {
         let mut e = Estimator::<W, H, RW, N, HALF, RHO>::new(m).with_thresholds(t);
+        e.set_scale_search(s);
         let reference = e.reference(&pair.0);
-        check(&e.estimate(&reference, &pair.1), false)?;
-        check(&e.estimate_with_prior(&reference, &pair.1, p), p.is_some())
+        check(&e.estimate(&reference, &pair.1), false, s)?;
+        check(
+            &e.estimate_with_prior(&reference, &pair.1, p),
+            p.is_some(),
+            s,
+        )
     };
     let name = format!("estimator {W}x{H}/{N} dense grids");
     fuzz(
@@ -190,8 +218,9 @@ fn estimator_on_grids<
             mode(),
             thresholds(),
             prior(),
+            scale_range(),
         ),
-        |(pair, m, t, p)| run(pair, m, t, p),
+        |(pair, m, t, p, s)| run(pair, m, t, p, s),
     );
     let name = format!("estimator {W}x{H}/{N} sparse grids");
     fuzz(
@@ -203,8 +232,9 @@ fn estimator_on_grids<
             mode(),
             thresholds(),
             prior(),
+            scale_range(),
         ),
-        |(pair, m, t, p)| run(pair, m, t, p),
+        |(pair, m, t, p, s)| run(pair, m, t, p, s),
     );
 }
 
@@ -295,7 +325,7 @@ fn fuzz_reference_from_bytes() {
                 let mut out = vec![0u8; R::BYTES];
                 prop_assert_eq!(reference.to_bytes(&mut out), Ok(R::BYTES));
                 let mut e = E::new(m);
-                check(&e.estimate(&reference, &grid), false)?;
+                check(&e.estimate(&reference, &grid), false, None)?;
             }
             Ok(())
         },
@@ -515,7 +545,7 @@ fn fuzz_scans() {
             }
             let mut e = Estimator::<64, 64, 2, 128, 64, 128>::new(Mode::Improved);
             let est = e.estimate_pair(&g1, &g2);
-            check(&est, false)?;
+            check(&est, false, None)?;
             let motion = raster.motion(est.alpha, est.translation.as_ref());
             prop_assert!(motion.dtheta.abs() <= std::f32::consts::PI + 1e-4);
             Ok(())
@@ -741,7 +771,7 @@ fn fuzz_cli_scan_pairs() {
                 ) {
                     Ok(estimates) => {
                         for e in &estimates {
-                            check(&e.estimate, false)?;
+                            check(&e.estimate, false, None)?;
                             prop_assert!(e.dtheta_deg.abs() <= 180.0 + 1e-3);
                         }
                     }
