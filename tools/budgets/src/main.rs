@@ -209,8 +209,9 @@ fn table_page(table: &str) -> String {
          functions, minus the markers' own cost. *instr. / vote*: that divided by the votes (occupied \
          cells × N_θ/2). *vote loop*: the estimator's vote primitive alone (`vote_column_pair` over \
          θ ∈ [0, π), no column reductions). *instr. / reference*: \
-         `Estimator::reference`. The estimate includes the translation (the profile matches of the \
-         direction test give the column shifts; the fit adds little). *scale search, extra instr.*: \
+         `Estimator::reference`. The estimate includes the translation (the column shifts come from \
+         the direction test's profile matches, then `fit_translation`). *scale search, extra \
+         instr.*: \
          the same estimate with `with_scale_search(ScaleRange::DEFAULT)` minus the plain one (its \
          scale is checked to be 1 ± 3 %).\n\
          - *estimator RAM*: `size_of` the estimator and the reference, plus the peak stack of the \
