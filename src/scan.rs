@@ -603,6 +603,7 @@ mod tests {
             y: fixed::types::I16F16::from_num(t.1),
             scale: fixed::types::I16F16::ONE,
             residual: fixed::types::I16F16::ZERO,
+            columns: 2,
             unobservable: None,
         };
         let raster = Raster::with_cell(0.1).unwrap();

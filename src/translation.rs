@@ -35,8 +35,15 @@ pub struct Translation {
     /// [`ScaleRange`](crate::ScaleRange).
     pub scale: I16F16,
     /// Weighted RMS of `n_j · t − s_j` over the columns kept, pixels of
-    /// image 2: how well the columns agree.
+    /// image 2: how well the columns agree. With two columns `t` is exactly
+    /// determined and the residual is 0 whatever the shifts: see
+    /// [`columns`](Self::columns).
     pub residual: I16F16,
+    /// Columns kept in the fit (1 to [`PROFILE_COLUMNS`](crate::PROFILE_COLUMNS),
+    /// after dropping an outlier). Only three or more can disagree: with
+    /// one (or one direction) the translation is partly unobservable, with
+    /// two a column locked on the wrong wall moves `t` unchecked.
+    pub columns: u8,
     /// Unit vector along which `t` is not observable (all column normals are
     /// nearly perpendicular to it); `t` has no component along it.
     pub unobservable: Option<(I16F16, I16F16)>,
@@ -69,9 +76,10 @@ pub fn fit_translation(shifts: &[ColumnShift]) -> Option<Translation> {
     if !(x.is_finite() && y.is_finite()) {
         return None;
     }
-    let (mut sum_w, mut sum_r2) = (0.0f32, 0.0f32);
+    let (mut sum_w, mut sum_r2, mut columns) = (0.0f32, 0.0f32, 0u8);
     for (c, _) in shifts.iter().zip(keep).filter(|(_, k)| *k) {
         let w = weight(c);
+        columns = columns.saturating_add(1);
         sum_w += w;
         sum_r2 += w * residual_of(c, x, y) * residual_of(c, x, y);
     }
@@ -85,6 +93,7 @@ pub fn fit_translation(shifts: &[ColumnShift]) -> Option<Translation> {
         y: to_fixed(y),
         scale: I16F16::ONE,
         residual: to_fixed(residual),
+        columns,
         unobservable: unobservable.map(|(ux, uy)| (to_fixed(ux), to_fixed(uy))),
     })
 }
@@ -107,6 +116,7 @@ impl Translation {
             y: self.y.saturating_mul(s),
             scale: s,
             residual: self.residual.saturating_mul(s),
+            columns: self.columns,
             unobservable: self.unobservable,
         }
     }

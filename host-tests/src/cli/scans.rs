@@ -206,6 +206,14 @@ pub struct OutputLine {
     /// Metres per cell used for this pair.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cell_m: Option<f64>,
+    /// RMS disagreement of the profile columns with the fitted translation,
+    /// metres (`Translation::residual` × the cell size).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub residual_m: Option<f64>,
+    /// Profile columns the translation fit kept (`Translation::columns`):
+    /// three or more cross-check each other.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub columns: Option<u8>,
     /// Unit vector (frame of scan 1) along which the translation is not
     /// observable (a corridor), when so.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -269,6 +277,10 @@ impl OutputLine {
             correlation: Some(round(e.correlation.to_num::<f64>(), 4)),
             rival: Some(round(e.rival.to_num::<f64>(), 4)),
             cell_m: Some(round(f64::from(p.cell), 6)),
+            residual_m: e
+                .translation
+                .map(|t| round(t.residual.to_num::<f64>() * f64::from(p.cell), 4)),
+            columns: e.translation.map(|t| t.columns),
             unobservable,
             dropped: p
                 .stats
@@ -292,6 +304,8 @@ impl OutputLine {
             correlation: None,
             rival: None,
             cell_m: None,
+            residual_m: None,
+            columns: None,
             unobservable: None,
             dropped: None,
             error: Some(message),
