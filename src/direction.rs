@@ -52,6 +52,27 @@ pub struct ProfileMatch {
     /// The shift `s` (bins = pixels, Q16, sub-bin by parabolic refinement)
     /// with `Q[b + s] ≈ P[b]` (direct) or `Q[b + s] ≈ P[RHO − b]` (mirrored).
     pub shift_q16: i32,
+    /// The next best local maxima of the match, more than
+    /// [`RUNNER_UP_SEPARATION`] shifts from the best, strongest first
+    /// (score 0: none): where parallel walls repeat, the right shift may be
+    /// one of these.
+    pub runners_up: [RunnerUp; RUNNERS_UP],
+}
+
+/// How many runner-up shifts a [`ProfileMatch`] keeps.
+pub const RUNNERS_UP: usize = 2;
+
+/// A runner-up shift must lie more than this many shifts from the best one.
+pub const RUNNER_UP_SEPARATION: i32 = 2;
+
+/// A local maximum of the match other than the best.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RunnerUp {
+    /// Normalised dot product there, Q16 in [0, 1]; 0 when there is none.
+    pub score_q16: u32,
+    /// Its shift, Q16, sub-bin by parabolic refinement.
+    pub shift_q16: i32,
 }
 
 /// Matches reference profile `profile` (counts scaled to `u8`) against
@@ -152,31 +173,45 @@ pub(crate) fn match_curve<const RHO: usize>(
         mirrored,
     };
     let mut best = (0u64, 0isize);
-    for s in s_min..=s_max {
-        let d = overlap.dot(profile, column, s);
+    // The strongest local maxima: (dot, shift, offset Q16).
+    let mut maxima = [(0u64, 0isize, 0i64); RUNNERS_UP + 1];
+    // Dots at s − 2 and s − 1 (0 before the window).
+    let (mut d2, mut d1) = (0u64, 0u64);
+    for s in s_min..=s_max + 1 {
+        let d = if s <= s_max {
+            overlap.dot(profile, column, s)
+        } else {
+            0
+        };
         if d > best.0 {
             best = (d, s);
         }
+        if d1 > d2 && d1 >= d {
+            keep_maximum(&mut maxima, (d1, s - 1, parabola_offset(d2, d1, d)));
+        }
+        (d2, d1) = (d1, d);
     }
     let (peak, s) = best;
     if peak == 0 {
         return none;
+    }
+    let mut runners_up = [RunnerUp::default(); RUNNERS_UP];
+    for (slot, &(d, at, offset)) in runners_up.iter_mut().zip(
+        maxima
+            .iter()
+            .filter(|m| m.0 > 0 && (m.1 - s).abs() > RUNNER_UP_SEPARATION as isize),
+    ) {
+        *slot = RunnerUp {
+            score_q16: normalised(d, norm),
+            shift_q16: ((at as i64) << 16).saturating_add(offset) as i32,
+        };
     }
     // The dot products at s − 2 ..= s + 2 (the middle one is the peak).
     let mut near = [0u64; 2 * CURVE_RADIUS + 1];
     for (k, d) in near.iter_mut().enumerate() {
         *d = overlap.dot(profile, column, s + k as isize - CURVE_RADIUS as isize);
     }
-    let (before, after) = (near[CURVE_RADIUS - 1] as i64, near[CURVE_RADIUS + 1] as i64);
-    let curvature = before - 2 * peak as i64 + after;
-    let offset = if curvature < 0 {
-        ((before - after) << 15)
-            .checked_div(curvature)
-            .unwrap_or(0)
-            .clamp(-(1 << 15), 1 << 15)
-    } else {
-        0
-    };
+    let offset = parabola_offset(near[CURVE_RADIUS - 1], peak, near[CURVE_RADIUS + 1]);
     let curve = MatchCurve {
         best: s as i32,
         scores_q16: near.map(|d| normalised(d, norm)),
@@ -185,9 +220,38 @@ pub(crate) fn match_curve<const RHO: usize>(
         ProfileMatch {
             score_q16: normalised(peak, norm),
             shift_q16: ((s as i64) << 16).saturating_add(offset) as i32,
+            runners_up,
         },
         curve,
     )
+}
+
+/// Vertex of the parabola through `(−1, before)`, `(0, peak)`, `(1, after)`,
+/// Q16 in [−½, ½]; 0 where the three do not bend down.
+fn parabola_offset(before: u64, peak: u64, after: u64) -> i64 {
+    let (before, peak, after) = (before as i64, peak as i64, after as i64);
+    let curvature = before - 2 * peak + after;
+    if curvature < 0 {
+        ((before - after) << 15)
+            .checked_div(curvature)
+            .unwrap_or(0)
+            .clamp(-(1 << 15), 1 << 15)
+    } else {
+        0
+    }
+}
+
+/// Inserts `candidate` into `maxima` (strongest first) if it is stronger
+/// than the weakest kept.
+fn keep_maximum(maxima: &mut [(u64, isize, i64)], candidate: (u64, isize, i64)) {
+    if let Some(at) = maxima.iter().position(|m| candidate.0 > m.0) {
+        if let Some(tail) = maxima.get_mut(at..) {
+            tail.rotate_right(1);
+            if let Some(slot) = tail.first_mut() {
+                *slot = candidate;
+            }
+        }
+    }
 }
 
 /// Where a profile (or its mirror) and a column hold votes.
@@ -303,5 +367,23 @@ mod tests {
         assert!(
             match_profile(&p, &m, 8, true).score_q16 > match_profile(&p, &m, 8, false).score_q16
         );
+    }
+
+    #[test]
+    fn repeated_walls_give_a_runner_up() {
+        // One wall in the profile (bins 9–11), two parallel walls in the
+        // column: 3 bins on (the stronger) and 15 bins on.
+        let mut p = [0u8; 48];
+        p[9..12].copy_from_slice(&[2, 8, 2]);
+        let mut q = [0u16; 48];
+        q[12..15].copy_from_slice(&[2, 8, 2]);
+        q[24..27].copy_from_slice(&[1, 5, 1]);
+        let m = match_profile(&p, &q, 20, false);
+        assert_eq!(m.shift_q16, 3 << 16);
+        let [first, second] = m.runners_up;
+        assert_eq!(first.shift_q16, 15 << 16);
+        assert!(first.score_q16 > 0 && first.score_q16 < m.score_q16);
+        // Nothing else more than RUNNER_UP_SEPARATION from the best.
+        assert_eq!(second.score_q16, 0);
     }
 }

@@ -7,7 +7,7 @@ use crate::direction::{match_curve, match_profile, paper_asymmetry, MatchCurve, 
 use crate::reference::{Reference, PROFILE_COLUMNS};
 use crate::scale::{self, ScaleRange, Window};
 use crate::signature::{PeakKind, Signature};
-use crate::translation::{fit_translation, ColumnShift, Translation};
+use crate::translation::{fit_translation, ColumnShift, Translation, WeightedShift};
 use crate::trig::TrigTable;
 use crate::{Angle, Grid, Score};
 use heapless::Vec;
@@ -553,8 +553,17 @@ impl<const RHO: usize> PoseColumn<'_, RHO> {
         ColumnShift {
             normal_q15: self.normal_q15,
             shift_q16: m.shift_q16,
-            weight_q16: ((u64::from(m.score_q16) * self.relative_q16) >> 16) as u32,
+            weight_q16: self.weight(m.score_q16),
+            runners_up: m.runners_up.map(|r| WeightedShift {
+                shift_q16: r.shift_q16,
+                weight_q16: self.weight(r.score_q16),
+            }),
         }
+    }
+
+    /// Match score (Q16) times relative strength, Q16.
+    fn weight(&self, score_q16: u32) -> u32 {
+        ((u64::from(score_q16) * self.relative_q16) >> 16) as u32
     }
 }
 

@@ -24,7 +24,10 @@ pub use accumulator::{
 pub use angle::Angle;
 pub use config::{half_turn_steps, recommended_n_theta, rho_bins, row_words};
 pub use correlation::{Correlation, Peak, MAX_PEAKS};
-pub use direction::{match_profile, match_profile_near, paper_asymmetry, ProfileMatch};
+pub use direction::{
+    match_profile, match_profile_near, paper_asymmetry, ProfileMatch, RunnerUp, RUNNERS_UP,
+    RUNNER_UP_SEPARATION,
+};
 pub use error::Error;
 pub use estimate::{
     Candidate, Estimate, Estimator, HalfTurn, HalfTurnTest, Mode, Prior, Status, Thresholds,
@@ -38,7 +41,7 @@ pub use scan::{
     AUTO_MIN_RADIUS_M, AUTO_PERCENTILE,
 };
 pub use signature::{ColumnStats, PeakKind, Signature, ASYMMETRY_FRACTION_BITS};
-pub use translation::{fit_translation, ColumnShift, Translation};
+pub use translation::{fit_translation, ColumnShift, Translation, WeightedShift, MAX_FIT_COLUMNS};
 pub use trig::{TrigTable, TRIG_FRACTION_BITS};
 
 /// Scores (correlations, margins, confidence) in Q16.16.

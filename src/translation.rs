@@ -2,13 +2,17 @@
 //!
 //! A translation `t` shifts the column at normal angle ψ by `t·(cos ψ, sin ψ)`
 //! in ρ. Given the measured shift `s_j` of a few columns, `t` is the weighted
-//! least-squares solution of `n_j · t = s_j`; the worst column is dropped once
-//! if it disagrees by more than 2 px. When all normals are nearly parallel
+//! least-squares solution of `n_j · t = s_j`. Where the shifts disagree (a
+//! column locked onto the wrong one of parallel walls), the translation best
+//! supported by the columns' best and runner-up shifts decides which shift
+//! each column contributes. When all normals are nearly parallel
 //! (a corridor) the shift along the walls is unobservable: the fit keeps only
 //! the observable component and reports the unobservable direction.
 
 use fixed::types::I16F16;
 use micromath::F32Ext;
+
+use crate::direction::RUNNERS_UP;
 
 /// The shift of one column, as measured by the profile match.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -18,6 +22,18 @@ pub struct ColumnShift {
     /// Shift `s` in pixels, Q16.
     pub shift_q16: i32,
     /// Weight (match score), Q16 in [0, 1].
+    pub weight_q16: u32,
+    /// The match's runner-up shifts, weighted like `weight_q16` (weight 0:
+    /// none): the fit may pick one where the best shifts disagree.
+    pub runners_up: [WeightedShift; RUNNERS_UP],
+}
+
+/// A candidate shift of a column and its weight.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct WeightedShift {
+    /// Shift in pixels, Q16.
+    pub shift_q16: i32,
+    /// Weight, Q16 in [0, 1]; 0 means no candidate.
     pub weight_q16: u32,
 }
 
@@ -52,24 +68,40 @@ pub struct Translation {
 /// Ratio of the small to the large eigenvalue of `Σ w n nᵀ` below which one
 /// direction counts as unobservable (normals within ~13° of each other).
 const OBSERVABILITY: f32 = 0.05;
-/// A column farther than this from the fit (pixels) is dropped once.
+/// A shift farther than this from a translation's prediction (pixels) does
+/// not support it.
 const OUTLIER_PX: f32 = 2.0;
+/// At most this many columns take part in the fit (the estimator gives
+/// [`PROFILE_COLUMNS`](crate::PROFILE_COLUMNS)); later ones are ignored.
+pub const MAX_FIT_COLUMNS: usize = 8;
 
-/// Fits `t` to the column shifts; `None` with fewer than one usable column.
+/// Which of a column's shifts the fit uses: its best (0), a runner-up
+/// (1 + index), or none.
+type Choice = Option<usize>;
+
+/// Fits `t` to the column shifts; `None` without a usable column.
+///
+/// When the best shifts agree (each within 2 px of their least-squares fit)
+/// they are the answer. Otherwise a column may have locked onto the wrong
+/// one of repeated walls: every translation that one column's candidate
+/// shift (best or runner-up) or two non-parallel columns' candidates
+/// determine is scored by the summed weight of the columns with a candidate
+/// within 2 px of its prediction, and the best-supported one picks each
+/// column's shift (or drops the column) for the final least-squares fit.
 pub fn fit_translation(shifts: &[ColumnShift]) -> Option<Translation> {
-    let mut keep = [true; 8];
-    let mut fit = solve(shifts, &keep)?;
-    if shifts.len() >= 4 {
-        let worst = shifts
-            .iter()
-            .enumerate()
-            .map(|(i, c)| (i, F32Ext::abs(residual_of(c, fit.0, fit.1))))
-            .fold((0, 0.0f32), |a, b| if b.1 > a.1 { b } else { a });
-        if worst.1 > OUTLIER_PX {
-            if let Some(k) = keep.get_mut(worst.0) {
-                *k = false;
+    let shifts = shifts.get(..MAX_FIT_COLUMNS).unwrap_or(shifts);
+    let mut choices: [Choice; MAX_FIT_COLUMNS] = [Some(0); MAX_FIT_COLUMNS];
+    let mut fit = solve(shifts, &choices)?;
+    let agree = shifts
+        .iter()
+        .zip(choices)
+        .all(|(c, k)| residual_of(c, k, fit.0, fit.1).is_none_or(|r| F32Ext::abs(r) <= OUTLIER_PX));
+    if !agree {
+        if let Some((x, y)) = consensus(shifts) {
+            for (choice, c) in choices.iter_mut().zip(shifts) {
+                *choice = supporting(c, x, y).map(|(k, _)| k);
             }
-            fit = solve(shifts, &keep)?;
+            fit = solve(shifts, &choices)?;
         }
     }
     let (x, y, unobservable) = fit;
@@ -77,11 +109,12 @@ pub fn fit_translation(shifts: &[ColumnShift]) -> Option<Translation> {
         return None;
     }
     let (mut sum_w, mut sum_r2, mut columns) = (0.0f32, 0.0f32, 0u8);
-    for (c, _) in shifts.iter().zip(keep).filter(|(_, k)| *k) {
-        let w = weight(c);
-        columns = columns.saturating_add(1);
-        sum_w += w;
-        sum_r2 += w * residual_of(c, x, y) * residual_of(c, x, y);
+    for (c, k) in shifts.iter().zip(choices) {
+        if let (Some((_, w)), Some(r)) = (candidate(c, k), residual_of(c, k, x, y)) {
+            sum_w += w;
+            sum_r2 += w * r * r;
+            columns = columns.saturating_add(1);
+        }
     }
     let residual = if sum_w > 0.0 {
         sqrt(sum_r2 / sum_w)
@@ -141,8 +174,20 @@ fn to_fixed(v: f32) -> I16F16 {
     I16F16::from_bits((v * 65536.0) as i32)
 }
 
-fn weight(c: &ColumnShift) -> f32 {
-    c.weight_q16 as f32 / 65536.0
+/// Candidates a column offers: its best shift, then its runners-up.
+const CANDIDATES: usize = 1 + RUNNERS_UP;
+
+/// Shift (pixels) and weight of candidate `choice` of column `c`; `None`
+/// when dropped, absent or of zero weight.
+fn candidate(c: &ColumnShift, choice: Choice) -> Option<(f32, f32)> {
+    let (shift_q16, weight_q16) = match choice? {
+        0 => (c.shift_q16, c.weight_q16),
+        k => {
+            let r = c.runners_up.get(k - 1)?;
+            (r.shift_q16, r.weight_q16)
+        }
+    };
+    (weight_q16 > 0).then(|| (shift_q16 as f32 / 65536.0, weight_q16 as f32 / 65536.0))
 }
 
 fn normal(c: &ColumnShift) -> (f32, f32) {
@@ -152,22 +197,88 @@ fn normal(c: &ColumnShift) -> (f32, f32) {
     )
 }
 
-fn residual_of(c: &ColumnShift, x: f32, y: f32) -> f32 {
+/// `n · t − s` for the chosen candidate of `c`.
+fn residual_of(c: &ColumnShift, choice: Choice, x: f32, y: f32) -> Option<f32> {
+    let (shift, _) = candidate(c, choice)?;
     let (nx, ny) = normal(c);
-    nx * x + ny * y - c.shift_q16 as f32 / 65536.0
+    Some(nx * x + ny * y - shift)
 }
+
+/// The candidate of `c` within [`OUTLIER_PX`] of `t`'s prediction with the
+/// largest weight, and that weight.
+fn supporting(c: &ColumnShift, x: f32, y: f32) -> Option<(usize, f32)> {
+    (0..CANDIDATES)
+        .filter_map(|k| {
+            let (_, w) = candidate(c, Some(k))?;
+            let r = residual_of(c, Some(k), x, y)?;
+            (F32Ext::abs(r) <= OUTLIER_PX).then_some((k, w))
+        })
+        .fold(None, |best: Option<(usize, f32)>, (k, w)| match best {
+            Some((_, bw)) if bw >= w => best,
+            _ => Some((k, w)),
+        })
+}
+
+/// The best-supported translation among those one candidate (its shift
+/// along the normal) or two non-parallel columns' candidates determine.
+fn consensus(shifts: &[ColumnShift]) -> Option<(f32, f32)> {
+    let support = |x: f32, y: f32| -> f32 {
+        shifts
+            .iter()
+            .filter_map(|c| supporting(c, x, y))
+            .map(|(_, w)| w)
+            .sum()
+    };
+    let mut best: Option<(f32, f32, f32)> = None;
+    let mut consider = |x: f32, y: f32| {
+        if !(x.is_finite() && y.is_finite()) {
+            return;
+        }
+        let s = support(x, y);
+        if best.is_none_or(|b| s > b.0) {
+            best = Some((s, x, y));
+        }
+    };
+    for (i, a) in shifts.iter().enumerate() {
+        let (ax, ay) = normal(a);
+        for ka in 0..CANDIDATES {
+            let Some((sa, _)) = candidate(a, Some(ka)) else {
+                continue;
+            };
+            consider(sa * ax, sa * ay);
+            for b in shifts.iter().skip(i + 1) {
+                let (bx, by) = normal(b);
+                let det = ax * by - ay * bx;
+                if F32Ext::abs(det) < MIN_PAIR_SINE {
+                    continue;
+                }
+                for kb in 0..CANDIDATES {
+                    if let Some((sb, _)) = candidate(b, Some(kb)) {
+                        consider((sa * by - ay * sb) / det, (ax * sb - sa * bx) / det);
+                    }
+                }
+            }
+        }
+    }
+    best.map(|(_, x, y)| (x, y))
+}
+
+/// Two columns determine a translation when their normals are at least
+/// ~20° apart (sine of the angle between them).
+const MIN_PAIR_SINE: f32 = 0.34;
 
 /// `t_x`, `t_y` (pixels) and the unobservable direction, if any.
 type Fit = (f32, f32, Option<(f32, f32)>);
 
-/// Weighted least squares over the kept columns; pseudo-inverse when one
-/// direction is unobservable.
-fn solve(shifts: &[ColumnShift], keep: &[bool; 8]) -> Option<Fit> {
+/// Weighted least squares over the chosen candidates; pseudo-inverse when
+/// one direction is unobservable.
+fn solve(shifts: &[ColumnShift], choices: &[Choice; MAX_FIT_COLUMNS]) -> Option<Fit> {
     let (mut a, mut b, mut c, mut u, mut v) = (0.0f32, 0.0f32, 0.0f32, 0.0f32, 0.0f32);
-    for (s, _) in shifts.iter().zip(keep).filter(|(_, k)| **k) {
-        let w = weight(s);
+    for (s, &k) in shifts.iter().zip(choices) {
+        let Some((shift, w)) = candidate(s, k) else {
+            continue;
+        };
         let (nx, ny) = normal(s);
-        let shift = s.shift_q16 as f32 / 65536.0;
         a += w * nx * nx;
         b += w * nx * ny;
         c += w * ny * ny;
@@ -218,6 +329,23 @@ mod tests {
             normal_q15: ((c * 32768.0) as i32, (s * 32768.0) as i32),
             shift_q16: (shift * 65536.0) as i32,
             weight_q16: 1 << 16,
+            runners_up: [WeightedShift::default(); RUNNERS_UP],
+        }
+    }
+
+    /// `column` whose best shift is `wrong` pixels off, with the right shift
+    /// as its runner-up of weight ¾.
+    fn locked_on_wrong_wall(deg: f32, t: (f32, f32), wrong: f32) -> ColumnShift {
+        let right = column(deg, t, 0.0);
+        ColumnShift {
+            runners_up: [
+                WeightedShift {
+                    shift_q16: right.shift_q16,
+                    weight_q16: 3 << 14,
+                },
+                WeightedShift::default(),
+            ],
+            ..column(deg, t, wrong)
         }
     }
 
@@ -234,6 +362,52 @@ mod tests {
         assert!((fit.x.to_num::<f32>() - 3.25).abs() < 0.01);
         assert!((fit.y.to_num::<f32>() + 1.5).abs() < 0.01);
         assert!(fit.unobservable.is_none());
+        assert_eq!(fit.columns, 3);
+    }
+
+    #[test]
+    fn agreeing_columns_keep_their_best_shifts() {
+        let t = (-4.0, 2.5);
+        let cols = [
+            column(10.0, t, 0.3),
+            column(100.0, t, -0.2),
+            column(55.0, t, 0.1),
+        ];
+        let fit = fit_translation(&cols).unwrap();
+        assert_eq!(fit.columns, 3);
+        assert!(
+            fit.residual > 0,
+            "three columns with noise disagree a little"
+        );
+        assert!((fit.x.to_num::<f32>() + 4.0).abs() < 0.5);
+        assert!((fit.y.to_num::<f32>() - 2.5).abs() < 0.5);
+    }
+
+    #[test]
+    fn a_column_locked_on_the_wrong_wall_takes_its_runner_up() {
+        // Three columns, one 12 px off (a parallel wall): least squares over
+        // the best shifts would be ~4 px off; the runner-up agrees with the
+        // other two.
+        let t = (6.0, -3.0);
+        let cols = [
+            column(0.0, t, 0.0),
+            column(90.0, t, 0.0),
+            locked_on_wrong_wall(45.0, t, 12.0),
+        ];
+        let fit = fit_translation(&cols).unwrap();
+        assert_eq!(fit.columns, 3);
+        assert!((fit.x.to_num::<f32>() - 6.0).abs() < 0.01, "{fit:?}");
+        assert!((fit.y.to_num::<f32>() + 3.0).abs() < 0.01, "{fit:?}");
+        assert!(fit.residual < I16F16::from_num(0.01));
+    }
+
+    #[test]
+    fn two_columns_fit_exactly_and_say_so() {
+        let cols = [column(0.0, (1.0, 2.0), 5.0), column(90.0, (1.0, 2.0), 0.0)];
+        let fit = fit_translation(&cols).unwrap();
+        assert_eq!(fit.columns, 2);
+        assert_eq!(fit.residual, 0);
+        assert!((fit.x.to_num::<f32>() - 6.0).abs() < 0.01);
     }
 
     #[test]

@@ -854,7 +854,7 @@ fn public_functions_on_edge_arguments() {
 fn matching_functions_on_degenerate_data() {
     use hough_heading::{
         fit_translation, match_profile, paper_asymmetry, ColumnShift, Correlation, HalfTurn,
-        HalfTurnTest, Peak,
+        HalfTurnTest, Peak, WeightedShift, RUNNERS_UP,
     };
     const HALF: usize = 180;
     let zero = [0u16; HALF];
@@ -957,6 +957,10 @@ fn matching_functions_on_degenerate_data() {
             normal_q15: ((cs * 32768.0) as i32, (sn * 32768.0) as i32),
             shift_q16: s,
             weight_q16: w,
+            runners_up: [WeightedShift {
+                shift_q16: s.saturating_neg(),
+                weight_q16: w / 2,
+            }; RUNNERS_UP],
         }
     };
     assert!(fit_translation(&[shift(0.0, 1 << 16, 0)]).is_none());
@@ -983,6 +987,10 @@ fn matching_functions_on_degenerate_data() {
         normal_q15: (i32::MAX, i32::MIN),
         shift_q16: i32::MIN,
         weight_q16: u32::MAX,
+        runners_up: [WeightedShift {
+            shift_q16: i32::MAX,
+            weight_q16: u32::MAX,
+        }; RUNNERS_UP],
     };
     let _ = fit_translation(&[degenerate; 5]);
 }

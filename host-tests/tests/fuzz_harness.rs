@@ -33,6 +33,7 @@ use hough_heading::{
     fit_translation, match_profile, paper_asymmetry, range_percentile, rho_bins, row_words, Angle,
     ColumnShift, ColumnStats, Correlation, Estimate, Estimator, Grid, Mode, PeakKind, Prior,
     Raster, Reference, ScaleRange, Scan, Score, SensorOffset, Signature, Status, Thresholds,
+    WeightedShift, MAX_FIT_COLUMNS, RUNNERS_UP,
 };
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
@@ -410,11 +411,20 @@ fn fuzz_matching_functions() {
             Ok(())
         },
     );
-    let shift =
-        (any::<(i32, i32)>(), any::<i32>(), any::<u32>()).prop_map(|(n, s, w)| ColumnShift {
+    let shift = (
+        any::<(i32, i32)>(),
+        any::<i32>(),
+        any::<u32>(),
+        any::<[(i32, u32); RUNNERS_UP]>(),
+    )
+        .prop_map(|(n, s, w, r)| ColumnShift {
             normal_q15: n,
             shift_q16: s,
             weight_q16: w,
+            runners_up: r.map(|(shift_q16, weight_q16)| WeightedShift {
+                shift_q16,
+                weight_q16,
+            }),
         });
     fuzz(
         "fit_translation",
@@ -424,6 +434,7 @@ fn fuzz_matching_functions() {
         |shifts| {
             if let Some(t) = fit_translation(&shifts) {
                 prop_assert!(t.residual >= 0);
+                prop_assert!(usize::from(t.columns) <= shifts.len().min(MAX_FIT_COLUMNS));
             }
             Ok(())
         },

@@ -40,9 +40,7 @@ use host_tests::eval::{
 };
 use host_tests::scene::{render_pair, Damage, SceneKind, Transform};
 use hough_heading::{
-    half_turn_steps, match_profile, rho_bins, row_words, vote_column_split, Angle, ColumnShift,
-    Estimator, Grid, Mode, Reference, ScaleRange, Score, Status, Thresholds, TrigTable,
-    UNIT_SCALE_Q16,
+    half_turn_steps, rho_bins, row_words, Estimator, Mode, ScaleRange, Score, Status, Thresholds,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -525,110 +523,8 @@ fn targets(results: &[(Row, Vec<Outcome>)]) -> String {
     out
 }
 
-/// The library's column shifts rebuilt host-side with its own rule (columns
-/// at least 30 % as strong as the strongest, weight = match score × relative
-/// strength), through the public `match_profile` and `vote_column`.
-fn column_shifts<const W: usize, const RW: usize, const RHO: usize>(
-    reference: &Reference<W, W, HALF, RHO>,
-    grid: &Grid<W, W, RW>,
-    alpha: Angle,
-) -> Vec<ColumnShift> {
-    let table = &TrigTable::<N_THETA>::TABLE;
-    let strongest = reference
-        .profiles()
-        .first()
-        .map_or(1, |p| u64::from(reference.signature().peak(p.theta)).max(1));
-    let max_shift = (Thresholds::DEFAULT.max_shift_fraction * RHO as i32).to_num::<usize>();
-    let mut shifts = Vec::new();
-    for profile in reference.profiles() {
-        let strength = u64::from(reference.signature().peak(profile.theta));
-        if 10 * strength < 3 * strongest {
-            continue;
-        }
-        let theta = Angle::from_steps_q16((profile.theta as i64) << 16, N_THETA);
-        let m = (theta + alpha).nearest_step(N_THETA);
-        let mut column = [0u16; RHO];
-        vote_column_split::<W, W, RW, N_THETA, RHO>(grid, m % HALF, UNIT_SCALE_Q16, &mut column);
-        if m >= HALF {
-            column[1..].reverse();
-        }
-        let matched = match_profile(&profile.counts, &column, max_shift, false);
-        shifts.push(ColumnShift {
-            normal_q15: (table.cos(m), table.sin(m)),
-            shift_q16: matched.shift_q16,
-            weight_q16: ((u64::from(matched.score_q16) * ((strength << 16) / strongest)) >> 16)
-                as u32,
-        });
-    }
-    shifts
-}
-
-/// A host-side translation fit: `(t_x, t_y, unobservable unit vector)`.
+/// A host-side translation: `(t_x, t_y, unobservable unit vector)`.
 type Fit = (f64, f64, Option<(f64, f64)>);
-
-/// `fit_translation`'s algorithm (weighted least squares, the worst of ≥ 4
-/// columns dropped once if more than 2 px off, one direction unobservable
-/// when the eigenvalue ratio is below 0.05) in `f64` with an exact square
-/// root: `(t_x, t_y, unobservable unit vector)`.
-fn fit_exact(shifts: &[ColumnShift]) -> Option<Fit> {
-    let col = |c: &ColumnShift| {
-        (
-            f64::from(c.weight_q16) / 65536.0,
-            f64::from(c.normal_q15.0) / 32768.0,
-            f64::from(c.normal_q15.1) / 32768.0,
-            f64::from(c.shift_q16) / 65536.0,
-        )
-    };
-    let solve = |keep: &[bool]| -> Option<Fit> {
-        let (mut a, mut b, mut c, mut u, mut v) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for (s, _) in shifts.iter().zip(keep).filter(|(_, k)| **k) {
-            let (w, nx, ny, shift) = col(s);
-            a += w * nx * nx;
-            b += w * nx * ny;
-            c += w * ny * ny;
-            u += w * nx * shift;
-            v += w * ny * shift;
-        }
-        let mean = 0.5 * (a + c);
-        let spread = (0.25 * (a - c) * (a - c) + b * b).sqrt();
-        let (large, small) = (mean + spread, mean - spread);
-        if large.is_nan() || large <= 1e-6 {
-            return None;
-        }
-        let (ex, ey) = if b.abs() > 1e-9 {
-            let n = (large - c).hypot(b);
-            ((large - c) / n, b / n)
-        } else if a >= c {
-            (1.0, 0.0)
-        } else {
-            (0.0, 1.0)
-        };
-        if small < 0.05 * large {
-            let along = (ex * u + ey * v) / large;
-            return Some((along * ex, along * ey, Some((-ey, ex))));
-        }
-        let det = a * c - b * b;
-        Some(((c * u - b * v) / det, (a * v - b * u) / det, None))
-    };
-    let mut keep = vec![true; shifts.len()];
-    let mut fit = solve(&keep)?;
-    if shifts.len() >= 4 {
-        let residual = |s: &ColumnShift, f: &Fit| {
-            let (_, nx, ny, shift) = col(s);
-            (nx * f.0 + ny * f.1 - shift).abs()
-        };
-        let (worst, r) = shifts
-            .iter()
-            .enumerate()
-            .map(|(i, s)| (i, residual(s, &fit)))
-            .fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
-        if r > 2.0 {
-            keep[worst] = false;
-            fit = solve(&keep)?;
-        }
-    }
-    Some(fit)
-}
 
 /// Translation error (observable part), whether an unobservable direction
 /// was reported, and its angle to the true walls in degrees (corridors).
@@ -647,25 +543,23 @@ fn translation_error(t: Fit, truth: &Transform) -> (f64, bool, f64) {
     }
 }
 
-/// Host-side experiment: the library's translation against the same
-/// column shifts fitted with an exact square root.
+/// Experiment: the translation on corridors (the unobservable direction and
+/// how far it is off the walls) next to polygons and Manhattan rooms.
 fn experiment_translation(trials: usize, threads: usize) -> String {
     const W: usize = 128;
     const RW: usize = row_words(128);
     const RHO: usize = rho_bins(128, 128);
     let mut out = format!(
-        "\n### Experiment: the translation fit with an exact square root (128², scale 1, {trials} \
+        "\n### Experiment: translation and the unobservable direction (128², scale 1, {trials} \
          trials a row)\n\n"
     );
     out.push_str(
-        "\"library\": `Estimate::translation` as returned. \"exact sqrt\": the same column shifts \
-         (rebuilt host-side with the library's rule) fitted by the same algorithm in `f64` with an \
-         exact square root. Errors over trials with the rotation right (either member of α, α + π \
+        "`Estimate::translation` as returned. Errors over trials with the rotation right (either member of α, α + π \
          for the symmetric corridors), restricted to the observable component when an \
          unobservable direction is reported; \"off the walls\": angle between the reported \
          direction and the walls.\n\n\
-         | scenes | damage | fit | t median px | t p90 px | unobservable reported | off the walls: median / p90 / max ° |\n\
-         |---|---|---|---|---|---|---|\n",
+         | scenes | damage | t median px | t p90 px | unobservable reported | off the walls: median / p90 / max ° |\n\
+         |---|---|---|---|---|---|\n",
     );
     type Gen = fn(&mut ChaCha8Rng) -> host_tests::scene::Scene;
     let scenes: [(&str, Gen); 4] = [
@@ -698,24 +592,15 @@ fn experiment_translation(trials: usize, threads: usize) -> String {
                 {
                     return None;
                 }
-                let library = estimate.translation.map(|t| {
+                estimate.translation.map(|t| {
                     let u = t
                         .unobservable
                         .map(|(x, y)| (x.to_num::<f64>(), y.to_num::<f64>()));
                     translation_error((t.x.to_num(), t.y.to_num(), u), &truth)
-                });
-                let exact = fit_exact(&column_shifts::<W, RW, RHO>(
-                    &reference,
-                    &g2,
-                    estimate.alpha,
-                ))
-                .map(|t| translation_error(t, &truth));
-                Some([library, exact])
+                })
             });
-            let fits = ["library", "exact sqrt"];
-            for (k, fit) in fits.iter().enumerate() {
-                let fits: Vec<(f64, bool, f64)> =
-                    results.iter().flatten().filter_map(|r| r[k]).collect();
+            {
+                let fits: Vec<(f64, bool, f64)> = results.iter().flatten().copied().collect();
                 let errors: Vec<f64> = fits.iter().map(|f| f.0).collect();
                 let offs: Vec<f64> = fits.iter().filter(|f| f.1).map(|f| f.2).collect();
                 let n = fits.len().max(1) as f64;
@@ -730,7 +615,7 @@ fn experiment_translation(trials: usize, threads: usize) -> String {
                     "–".into()
                 };
                 out.push_str(&format!(
-                    "| {name} | {damage_name} | {fit} | {} | {} | {} | {off} |\n",
+                    "| {name} | {damage_name} | {} | {} | {} | {off} |\n",
                     num(quantile(&errors, 0.5), 2),
                     num(quantile(&errors, 0.9), 2),
                     pct(fits.iter().filter(|f| f.1).count() as f64 / n),

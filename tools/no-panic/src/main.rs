@@ -29,7 +29,7 @@ use core::hint::black_box;
 use hough_heading::{
     fit_translation, match_profile, match_profile_near, max_votes_per_bin, paper_asymmetry,
     range_percentile, recommended_n_theta, rho_bins, row_words, vote_column, vote_column_split,
-    Accumulator, Angle, Column, ColumnShift, ColumnStats, Correlation, Estimator, Grid, Mode,
+    Accumulator, Angle, Column, ColumnShift, WeightedShift, RUNNERS_UP, ColumnStats, Correlation, Estimator, Grid, Mode,
     Peak, PeakKind, Prior, Raster, Reference, ScaleRange, Scan, ScanStats, Score, SensorOffset,
     Signature, Thresholds,
 };
@@ -220,6 +220,12 @@ fn entry_translation() {
         normal_q15: (opaque(0), opaque(0)),
         shift_q16: opaque(0),
         weight_q16: opaque(0),
+        runners_up: opaque(
+            [WeightedShift {
+                shift_q16: opaque(0),
+                weight_q16: opaque(0),
+            }; RUNNERS_UP],
+        ),
     };
     let shifts = opaque([shift; 12]);
     opaque(fit_translation(shifts.get(..opaque(0)).unwrap_or(&[])));
