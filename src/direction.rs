@@ -127,6 +127,9 @@ impl MatchCurve {
 }
 
 /// [`match_profile_near`] and the scores around its best integer shift.
+/// Not inlined: the direction test calls it twice per column, and each
+/// inlined copy would keep its own locals on the caller's stack.
+#[inline(never)]
 pub(crate) fn match_curve<const RHO: usize>(
     profile: &[u8; RHO],
     column: &Column<RHO>,
@@ -157,7 +160,7 @@ pub(crate) fn match_curve<const RHO: usize>(
         .iter()
         .map(|&v| u64::from(u32::from(v) * u32::from(v)))
         .sum();
-    let norm = isqrt_u128(u128::from(p_sq) * u128::from(q_sq));
+    let norm = sqrt_of_product(p_sq, q_sq);
     if norm == 0 {
         return none;
     }
@@ -173,8 +176,8 @@ pub(crate) fn match_curve<const RHO: usize>(
         mirrored,
     };
     let mut best = (0u64, 0isize);
-    // The strongest local maxima: (dot, shift, offset Q16).
-    let mut maxima = [(0u64, 0isize, 0i64); RUNNERS_UP + 1];
+    // The strongest local maxima (dot, shift), strongest first.
+    let mut maxima = [(0u64, 0isize); RUNNERS_UP + 1];
     // Dots at s − 2 and s − 1 (0 before the window).
     let (mut d2, mut d1) = (0u64, 0u64);
     for s in s_min..=s_max + 1 {
@@ -187,7 +190,7 @@ pub(crate) fn match_curve<const RHO: usize>(
             best = (d, s);
         }
         if d1 > d2 && d1 >= d {
-            keep_maximum(&mut maxima, (d1, s - 1, parabola_offset(d2, d1, d)));
+            keep_maximum(&mut maxima, (d1, s - 1));
         }
         (d2, d1) = (d1, d);
     }
@@ -196,14 +199,18 @@ pub(crate) fn match_curve<const RHO: usize>(
         return none;
     }
     let mut runners_up = [RunnerUp::default(); RUNNERS_UP];
-    for (slot, &(d, at, offset)) in runners_up.iter_mut().zip(
-        maxima
-            .iter()
-            .filter(|m| m.0 > 0 && (m.1 - s).abs() > RUNNER_UP_SEPARATION as isize),
-    ) {
+    let others = maxima
+        .iter()
+        .filter(|m| m.0 > 0 && (m.1 - s).abs() > RUNNER_UP_SEPARATION as isize);
+    for (slot, &(at, shift)) in runners_up.iter_mut().zip(others) {
+        let (before, after) = (
+            overlap.dot(profile, column, shift - 1),
+            overlap.dot(profile, column, shift + 1),
+        );
         *slot = RunnerUp {
-            score_q16: normalised(d, norm),
-            shift_q16: ((at as i64) << 16).saturating_add(offset) as i32,
+            score_q16: normalised(at, norm),
+            shift_q16: ((shift as i64) << 16).saturating_add(parabola_offset(before, at, after))
+                as i32,
         };
     }
     // The dot products at s − 2 ..= s + 2 (the middle one is the peak).
@@ -241,15 +248,12 @@ fn parabola_offset(before: u64, peak: u64, after: u64) -> i64 {
     }
 }
 
-/// Inserts `candidate` into `maxima` (strongest first) if it is stronger
-/// than the weakest kept.
-fn keep_maximum(maxima: &mut [(u64, isize, i64)], candidate: (u64, isize, i64)) {
-    if let Some(at) = maxima.iter().position(|m| candidate.0 > m.0) {
-        if let Some(tail) = maxima.get_mut(at..) {
-            tail.rotate_right(1);
-            if let Some(slot) = tail.first_mut() {
-                *slot = candidate;
-            }
+/// Inserts local maximum `(dot, shift)` into `maxima` (strongest first)
+/// if it is stronger than the weakest kept.
+fn keep_maximum(maxima: &mut [(u64, isize)], mut candidate: (u64, isize)) {
+    for slot in maxima.iter_mut() {
+        if candidate.0 > slot.0 {
+            core::mem::swap(slot, &mut candidate);
         }
     }
 }
@@ -325,18 +329,24 @@ fn support<T: Copy + Into<u32>>(values: &[T]) -> Option<(usize, usize)> {
     Some((first, last))
 }
 
-/// `d / norm` in Q16, at most 1 (`d ≤ norm` by Cauchy–Schwarz). Not
-/// inlined, like [`isqrt_u128`]: their `u128` temporaries would otherwise
-/// sit in the frame of every caller.
-#[inline(never)]
+/// `d / norm` in Q16, at most 1 (`d ≤ norm` by Cauchy–Schwarz, up to the
+/// rounding of [`sqrt_of_product`]). `d < 2⁴⁸` (it is at most
+/// `RHO · 255 · 2¹⁶`), so `d · 2¹⁶` fits `u64`.
 fn normalised(d: u64, norm: u64) -> u32 {
-    ((u128::from(d) << 16) / u128::from(norm.max(1))).min(1 << 16) as u32
+    ((d.min(u64::MAX >> 16) << 16) / norm.max(1)).min(1 << 16) as u32
 }
 
-/// `⌊√v⌋`.
-#[inline(never)]
-pub(crate) fn isqrt_u128(v: u128) -> u64 {
-    v.isqrt() as u64
+/// `√(a·b)` without 128-bit arithmetic (whose routines cost the Cortex-M0
+/// dearly and took 220 B of stack): each factor is shifted left by an even
+/// amount to just below 2⁶², rooted (≥ 2³⁰ unless it is 0), and the product
+/// of the roots shifted back. Relative error below 2⁻²⁹; 0 when either is 0.
+fn sqrt_of_product(a: u64, b: u64) -> u64 {
+    let root = |v: u64| -> (u64, u32) {
+        let shift = v.leading_zeros().saturating_sub(2) & !1;
+        ((v << shift).isqrt(), shift / 2)
+    };
+    let ((root_a, half_a), (root_b, half_b)) = (root(a), root(b));
+    root_a.saturating_mul(root_b) >> (half_a + half_b).min(63)
 }
 
 #[cfg(test)]
@@ -385,5 +395,25 @@ mod tests {
         assert!(first.score_q16 > 0 && first.score_q16 < m.score_q16);
         // Nothing else more than RUNNER_UP_SEPARATION from the best.
         assert_eq!(second.score_q16, 0);
+    }
+
+    #[test]
+    fn sqrt_of_product_is_within_its_bound() {
+        for (a, b) in [
+            (1u64, 1u64),
+            (2, 3),
+            (65_025, 7),
+            (1 << 29, (1 << 41) - 1),
+            (123_456_789, 987_654),
+            (0, 5),
+        ] {
+            let exact = ((a as f64) * (b as f64)).sqrt();
+            let got = sqrt_of_product(a, b) as f64;
+            assert!(got <= exact + 1e-9, "{a} {b}: {got} > {exact}");
+            assert!(
+                got >= exact * (1.0 - 1e-8) - 1.0,
+                "{a} {b}: {got} ≪ {exact}"
+            );
+        }
     }
 }

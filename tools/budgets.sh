@@ -3,6 +3,7 @@
 #
 #   bash tools/budgets.sh            # measure, print the table, rewrite budgets/budgets.json + budgets/TABLE.md
 #   bash tools/budgets.sh --check    # measure, print the table, fail on > 10 % growth over budgets/budgets.json
+#   bash tools/budgets.sh --only 128x128/360   # one configuration, printed only (a quick look while working)
 #
 # For 64², 128² and 256² room outlines with N_THETA = 360 and the paper's
 # recommended range, on Cortex-M4F (QEMU mps2-an386), Cortex-M0 (QEMU microbit)

@@ -1238,8 +1238,8 @@ fn raster_connect_bounds_its_work() {
 // | n·ΣD², (ΣD)², num (Correlation)  | i64  | ≤ 2^48 (2^54 for any u16 values)    |
 // | den² (Correlation)               | u128 | ≤ 2^96                              |
 // | Σ S1·S2 (paper_asymmetry)        | i64  | ≤ 2^41, « 16 → 2^57                 |
-// | Σ P·Q (match_profile)            | u64  | ≤ RHO·255·4096 = 2^32               |
-// | ΣP²·ΣQ² (match_profile)          | u128 | ≤ 2^28·2^36 = 2^64                  |
+// | Σ P·Q (match_profile), « 16      | u64  | ≤ RHO·255·65535 = 2^36, « 16 → 2^52 |
+// | ΣP², ΣQ² (match_profile)         | u64  | ≤ 2^28, ≤ 2^44; rooted separately   |
 // | occupied cells                   | u32  | 2^22                                |
 
 /// Runs `f` on a thread with a 512 MiB stack (2048² grids are 512 KiB each).

@@ -11,6 +11,9 @@
 //! - *t median / p90*: `|d_est − d_gt|` in metres over the pairs whose
 //!   rotation is within 2° and whose translation is observable; for the zero
 //!   estimate, `|d_gt|` over all pairs.
+//! - *t > 0.3 m*: among the pairs of *t median*, those more than 0.3 m
+//!   off, for translations fitted to 3 or more columns (cross-checked) and
+//!   to 2 (`Translation::columns`).
 //! - *t unobs.*: among the pairs whose rotation is within 2°, the share whose
 //!   translation is unobservable along one direction (corridors: the estimate
 //!   has no component along it, so its error there is the motion along the
@@ -49,6 +52,8 @@ struct Outcome {
     error_deg: f64,
     flagged: bool,
     translation_error: Option<f64>,
+    /// Columns the translation fit kept (0 without a translation).
+    columns: u8,
     unobservable: bool,
 }
 
@@ -84,12 +89,14 @@ impl Summary {
                     .filter(|_| error_deg <= 2.0 && !unobservable)
                     .map(|(x, y)| (x - truth.dx).hypot(y - truth.dy));
                 let flagged = p.estimate.status != hough_heading::Status::Confident;
+                let columns = p.estimate.translation.map_or(0, |t| t.columns);
                 (
                     *m,
                     Outcome {
                         error_deg,
                         flagged,
                         translation_error,
+                        columns,
                         unobservable,
                     },
                 )
@@ -101,6 +108,7 @@ impl Summary {
                 error_deg: dtheta_deg.abs(),
                 flagged: false,
                 translation_error: Some(truth.dx.hypot(truth.dy)),
+                columns: 0,
                 unobservable: false,
             },
         ));
@@ -120,8 +128,8 @@ impl Summary {
     pub fn table(&self) -> String {
         let mut out = String::new();
         out.push_str(
-            "| subset | method | pairs | median ° | p90 ° | ≤ 2° | flips | flagged | fail unflagged (> 5°) | t median m | t p90 m | t unobs. |\n\
-             |---|---|---|---|---|---|---|---|---|---|---|---|\n",
+            "| subset | method | pairs | median ° | p90 ° | ≤ 2° | flips | flagged | fail unflagged (> 5°) | t median m | t p90 m | t > 0.3 m: 3+ columns / 2 | t unobs. |\n\
+             |---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         );
         type Filter = fn(&Row) -> bool;
         let subsets: [(&str, Filter); 4] = [
@@ -159,7 +167,7 @@ fn line(subset: &str, method: Method, outcomes: &[Outcome]) -> String {
     let n = outcomes.len();
     if n == 0 {
         return format!(
-            "| {subset} | {} | 0 | – | – | – | – | – | – | – | – |\n",
+            "| {subset} | {} | 0 | – | – | – | – | – | – | – | – | – | – |\n",
             method.name()
         );
     }
@@ -205,8 +213,30 @@ fn line(subset: &str, method: Method, outcomes: &[Outcome]) -> String {
             format!("{:.3}", quantile(&mut t, 0.9)),
         )
     };
+    let off = |checked: bool| {
+        let fitted: Vec<f64> = outcomes
+            .iter()
+            .filter(|o| (o.columns >= 3) == checked)
+            .filter_map(|o| o.translation_error)
+            .collect();
+        let far = fitted.iter().filter(|&&e| e > 0.3).count();
+        if fitted.is_empty() {
+            "–".to_string()
+        } else {
+            format!(
+                "{:.1} % ({far}/{})",
+                100.0 * far as f64 / fitted.len() as f64,
+                fitted.len()
+            )
+        }
+    };
+    let t_off = if method == Method::Zero || t.is_empty() {
+        "–".to_string()
+    } else {
+        format!("{} / {}", off(true), off(false))
+    };
     format!(
-        "| {subset} | {} | {n} | {:.2} | {:.2} | {} | {} | {flagged} | {unflagged_fail} | {t_median} | {t_p90} | {unobservable} |\n",
+        "| {subset} | {} | {n} | {:.2} | {:.2} | {} | {} | {flagged} | {unflagged_fail} | {t_median} | {t_p90} | {t_off} | {unobservable} |\n",
         method.name(),
         quantile(&mut errors, 0.5),
         quantile(&mut errors, 0.9),

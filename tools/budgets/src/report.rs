@@ -96,8 +96,9 @@ impl Config {
 
 /// The configurations: each side with `N_THETA` = 360 and the two ends of the
 /// paper's recommended range (`hough_heading::recommended_n_theta`; the upper
-/// end is exclusive, so the largest even value below it).
-pub fn configs() -> Vec<Config> {
+/// end is exclusive, so the largest even value below it). With `only` (a
+/// key such as `128x128/360`), just that one.
+pub fn configs(only: Option<&str>) -> Vec<Config> {
     let mut out = Vec::new();
     for side in SIDES {
         let (min, max_exclusive) = hough_heading::recommended_n_theta(side, side);
@@ -115,6 +116,7 @@ pub fn configs() -> Vec<Config> {
             }
         }
     }
+    out.retain(|c| only.is_none_or(|key| c.key() == key));
     out
 }
 
@@ -338,8 +340,8 @@ pub struct Measured {
 }
 
 /// Builds and measures every target and configuration.
-pub fn measure(paths: &Paths) -> Result<Measured, Error> {
-    let configs = configs();
+pub fn measure(paths: &Paths, only: Option<&str>) -> Result<Measured, Error> {
+    let configs = configs(only);
     let mut targets = Map::new();
     let mut failures = Vec::new();
     let mut rows = Vec::new();
@@ -507,7 +509,7 @@ mod tests {
 
     #[test]
     fn configs_cover_the_recommended_range() {
-        let c = configs();
+        let c = configs(None);
         assert!(c.iter().any(|c| c.side == 128 && c.n_theta == 360));
         assert!(c
             .iter()
