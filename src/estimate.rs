@@ -7,7 +7,9 @@ use crate::direction::{match_curve, match_profile, paper_asymmetry, MatchCurve, 
 use crate::reference::{Reference, PROFILE_COLUMNS};
 use crate::scale::{self, ScaleRange, Window};
 use crate::signature::{PeakKind, Signature};
-use crate::translation::{fit_translation, ColumnShift, Translation, WeightedShift};
+use crate::translation::{
+    fit_best_shifts, fit_translation, ColumnShift, Translation, WeightedShift,
+};
 use crate::trig::TrigTable;
 use crate::{Angle, Grid, Score};
 use heapless::Vec;
@@ -627,7 +629,9 @@ fn search_scale<
             *curve = c;
             let _ = shifts.push(pose.shift(m));
         }
-        let total = fit_translation(&shifts).map_or(0, |t| {
+        // Scored on the best shifts alone; the pose itself, fitted to the
+        // shifts of the chosen scale, weighs the runners-up too.
+        let total = fit_best_shifts(&shifts).map_or(0, |t| {
             columns
                 .iter()
                 .zip(curves)

@@ -95,8 +95,20 @@ const DROPPED: Choice = u8::MAX;
 /// scored by the summed weight of the columns with a candidate within 2 px
 /// of its prediction, and the best-supported one picks each column's shift
 /// (or drops the column) for the final least-squares fit.
-#[inline(never)]
 pub fn fit_translation(shifts: &[ColumnShift]) -> Option<Translation> {
+    fit(shifts, CANDIDATES)
+}
+
+/// [`fit_translation`] on the best shifts alone (runners-up ignored): the
+/// scale search scores every scale with it, where weighing the runners-up
+/// would cost FPU-less targets dearly at scales whose columns disagree anyway.
+pub(crate) fn fit_best_shifts(shifts: &[ColumnShift]) -> Option<Translation> {
+    fit(shifts, 1)
+}
+
+/// The fit over each column's first `candidates` shifts (1: the best only).
+#[inline(never)]
+fn fit(shifts: &[ColumnShift], candidates: Choice) -> Option<Translation> {
     let shifts = shifts.get(..MAX_FIT_COLUMNS).unwrap_or(shifts);
     let mut choices: [Choice; MAX_FIT_COLUMNS] = [0; MAX_FIT_COLUMNS];
     let mut fit = solve(shifts, &choices)?;
@@ -105,9 +117,9 @@ pub fn fit_translation(shifts: &[ColumnShift]) -> Option<Translation> {
         .zip(choices)
         .all(|(c, k)| residual_of(c, k, fit.0, fit.1).is_none_or(|r| F32Ext::abs(r) <= OUTLIER_PX));
     if !agree {
-        if let Some((x, y)) = consensus(shifts) {
+        if let Some((x, y)) = consensus(shifts, candidates) {
             for (choice, c) in choices.iter_mut().zip(shifts) {
-                *choice = supporting(c, x, y).map_or(DROPPED, |(k, _)| k);
+                *choice = supporting(c, x, y, candidates).map_or(DROPPED, |(k, _)| k);
             }
             fit = solve(shifts, &choices)?;
         }
@@ -212,10 +224,10 @@ fn residual_of(c: &ColumnShift, choice: Choice, x: f32, y: f32) -> Option<f32> {
     Some(nx * x + ny * y - shift)
 }
 
-/// The candidate of `c` within [`OUTLIER_PX`] of `t`'s prediction with the
-/// largest weight, and that weight.
-fn supporting(c: &ColumnShift, x: f32, y: f32) -> Option<(Choice, f32)> {
-    (0..CANDIDATES)
+/// Among the first `candidates` of `c`, the one within [`OUTLIER_PX`] of
+/// `t`'s prediction with the largest weight, and that weight.
+fn supporting(c: &ColumnShift, x: f32, y: f32, candidates: Choice) -> Option<(Choice, f32)> {
+    (0..candidates)
         .filter_map(|k| {
             let (_, w) = candidate(c, k)?;
             let r = residual_of(c, k, x, y)?;
@@ -232,7 +244,7 @@ fn supporting(c: &ColumnShift, x: f32, y: f32) -> Option<(Choice, f32)> {
 /// such pair, those one column's candidate determines (its shift along the
 /// normal). Not inlined: its frame is only on the stack while it runs.
 #[inline(never)]
-fn consensus(shifts: &[ColumnShift]) -> Option<(f32, f32)> {
+fn consensus(shifts: &[ColumnShift], candidates: Choice) -> Option<(f32, f32)> {
     let mut best: Option<(f32, f32, f32)> = None;
     let mut consider = |x: f32, y: f32| {
         if !(x.is_finite() && y.is_finite()) {
@@ -240,7 +252,7 @@ fn consensus(shifts: &[ColumnShift]) -> Option<(f32, f32)> {
         }
         let support: f32 = shifts
             .iter()
-            .filter_map(|c| supporting(c, x, y))
+            .filter_map(|c| supporting(c, x, y, candidates))
             .map(|(_, w)| w)
             .sum();
         if best.is_none_or(|b| support > b.0) {
@@ -257,8 +269,8 @@ fn consensus(shifts: &[ColumnShift]) -> Option<(f32, f32)> {
                 continue;
             }
             pairs = true;
-            for ka in 0..CANDIDATES {
-                for kb in (0..CANDIDATES).filter(|&kb| ka == 0 || kb == 0) {
+            for ka in 0..candidates {
+                for kb in (0..candidates).filter(|&kb| ka == 0 || kb == 0) {
                     if let (Some((sa, _)), Some((sb, _))) = (candidate(a, ka), candidate(b, kb)) {
                         consider((sa * by - ay * sb) / det, (ax * sb - sa * bx) / det);
                     }
@@ -269,7 +281,7 @@ fn consensus(shifts: &[ColumnShift]) -> Option<(f32, f32)> {
     if !pairs {
         for c in shifts {
             let (nx, ny) = normal(c);
-            for k in 0..CANDIDATES {
+            for k in 0..candidates {
                 if let Some((shift, _)) = candidate(c, k) {
                     consider(shift * nx, shift * ny);
                 }

@@ -412,6 +412,8 @@ fn scans_reports_bad_lines_and_goes_on() {
         "candidates_deg",
         "dx_m",
         "dy_m",
+        "residual_m",
+        "columns",
     ];
     for key in keys {
         assert!(out[0].get(key).is_some(), "{key} missing: {}", out[0]);
@@ -562,6 +564,8 @@ fn images_scale_search_recovers_a_known_scale_and_translation() {
     assert!((f(&v, "tx_px") - 3.25).abs() < 0.75, "{v}");
     assert!((f(&v, "ty_px") + 1.5).abs() < 0.75, "{v}");
     assert!(f(&v, "residual_px") >= 0.0, "{v}");
+    let columns = v["columns"].as_u64().unwrap();
+    assert!((1..=4).contains(&columns), "{v}");
     // Without the search the scale is reported as exactly 1.
     assert_eq!(f(&run(&[]), "scale"), 1.0);
     // A range outside 0.5–2, or not MIN:MAX, is a usage error.

@@ -408,6 +408,9 @@ pub struct ImagesResult {
     pub scale: Option<f64>,
     /// How well the columns agree on the translation: weighted RMS, pixels.
     pub residual_px: Option<f64>,
+    /// Profile columns the translation fit kept: 3 or more cross-check each
+    /// other, 2 determine it exactly (residual 0, unchecked).
+    pub columns: Option<u8>,
     /// Unit vector along which the translation is not observable (a
     /// corridor), `[x, y]`; null when it is fully observable.
     pub unobservable: Option<[f64; 2]>,
@@ -525,6 +528,7 @@ pub fn images_result(
         residual_px: e
             .translation
             .map(|t| scans::round(t.residual.to_num::<f64>(), 3)),
+        columns: e.translation.map(|t| t.columns),
         unobservable: e.translation.and_then(|t| t.unobservable).map(|(x, y)| {
             [
                 scans::round(x.to_num::<f64>(), 4),
@@ -560,6 +564,11 @@ pub fn describe_images(r: &ImagesResult, mode: ModeArg) -> String {
             let mut text = format!("tx = {x:+.2} px, ty = {y:+.2} px (x right, y up)");
             if let Some(residual) = r.residual_px {
                 text.push_str(&format!(", residual {residual:.2} px"));
+            }
+            match r.columns {
+                Some(c @ 3..) => text.push_str(&format!(" over {c} columns")),
+                Some(c) => text.push_str(&format!(" over {c} column(s): not cross-checked")),
+                None => {}
             }
             if let Some([ux, uy]) = r.unobservable {
                 text.push_str(&format!(
