@@ -85,7 +85,8 @@ type Choice = u8;
 /// The column takes no part in the fit.
 const DROPPED: Choice = u8::MAX;
 
-/// Fits `t` to the column shifts; `None` without a usable column.
+/// Fits `t` to the column shifts; `None` without a usable column. Only the
+/// first [`MAX_FIT_COLUMNS`] shifts are used.
 ///
 /// When the best shifts agree (each within 2 px of their least-squares fit)
 /// they are the answer. Otherwise a column may have locked onto the wrong
