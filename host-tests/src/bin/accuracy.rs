@@ -554,10 +554,10 @@ fn experiment_translation(trials: usize, threads: usize) -> String {
          trials a row)\n\n"
     );
     out.push_str(
-        "`Estimate::translation` as returned. Errors over trials with the rotation right (either member of α, α + π \
-         for the symmetric corridors), restricted to the observable component when an \
-         unobservable direction is reported; \"off the walls\": angle between the reported \
-         direction and the walls.\n\n\
+        "`Estimate::translation` as returned. Errors over trials with the rotation right \
+         (either member of α, α + π for the symmetric corridors), restricted to the observable \
+         component when an unobservable direction is reported; \"off the walls\": angle \
+         between the reported direction and the walls.\n\n\
          | scenes | damage | t median px | t p90 px | unobservable reported | off the walls: median / p90 / max ° |\n\
          |---|---|---|---|---|---|\n",
     );
@@ -599,28 +599,26 @@ fn experiment_translation(trials: usize, threads: usize) -> String {
                     translation_error((t.x.to_num(), t.y.to_num(), u), &truth)
                 })
             });
-            {
-                let fits: Vec<(f64, bool, f64)> = results.iter().flatten().copied().collect();
-                let errors: Vec<f64> = fits.iter().map(|f| f.0).collect();
-                let offs: Vec<f64> = fits.iter().filter(|f| f.1).map(|f| f.2).collect();
-                let n = fits.len().max(1) as f64;
-                let off = if name.contains("corridor") && !offs.is_empty() {
-                    format!(
-                        "{:.2} / {:.2} / {:.2}",
-                        quantile(&offs, 0.5),
-                        quantile(&offs, 0.9),
-                        quantile(&offs, 1.0)
-                    )
-                } else {
-                    "–".into()
-                };
-                out.push_str(&format!(
-                    "| {name} | {damage_name} | {} | {} | {} | {off} |\n",
-                    num(quantile(&errors, 0.5), 2),
-                    num(quantile(&errors, 0.9), 2),
-                    pct(fits.iter().filter(|f| f.1).count() as f64 / n),
-                ));
-            }
+            let fits: Vec<(f64, bool, f64)> = results.iter().flatten().copied().collect();
+            let errors: Vec<f64> = fits.iter().map(|f| f.0).collect();
+            let offs: Vec<f64> = fits.iter().filter(|f| f.1).map(|f| f.2).collect();
+            let n = fits.len().max(1) as f64;
+            let off = if name.contains("corridor") && !offs.is_empty() {
+                format!(
+                    "{:.2} / {:.2} / {:.2}",
+                    quantile(&offs, 0.5),
+                    quantile(&offs, 0.9),
+                    quantile(&offs, 1.0)
+                )
+            } else {
+                "–".into()
+            };
+            out.push_str(&format!(
+                "| {name} | {damage_name} | {} | {} | {} | {off} |\n",
+                num(quantile(&errors, 0.5), 2),
+                num(quantile(&errors, 0.9), 2),
+                pct(fits.iter().filter(|f| f.1).count() as f64 / n),
+            ));
         }
     }
     out

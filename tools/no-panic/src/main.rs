@@ -29,9 +29,9 @@ use core::hint::black_box;
 use hough_heading::{
     fit_translation, match_profile, match_profile_near, max_votes_per_bin, paper_asymmetry,
     range_percentile, recommended_n_theta, rho_bins, row_words, vote_column, vote_column_split,
-    Accumulator, Angle, Column, ColumnShift, WeightedShift, RUNNERS_UP, ColumnStats, Correlation, Estimator, Grid, Mode,
-    Peak, PeakKind, Prior, Raster, Reference, ScaleRange, Scan, ScanStats, Score, SensorOffset,
-    Signature, Thresholds,
+    Accumulator, Angle, Column, ColumnShift, ColumnStats, Correlation, Estimator, Grid, Mode, Peak,
+    PeakKind, Prior, Raster, Reference, ScaleRange, Scan, ScanStats, Score, SensorOffset,
+    Signature, Thresholds, WeightedShift, RUNNERS_UP,
 };
 
 /// Any value of `T`, as far as the optimiser knows.
