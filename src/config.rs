@@ -134,6 +134,13 @@ pub(crate) const fn check_config(
 }
 
 /// Compile-time checks of a grid's parameters.
+pub(crate) const fn check_pyramid(width: usize, height: usize, pyramid_words: usize) {
+    assert!(
+        pyramid_words == crate::align::pyramid_words(width, height),
+        "PW must equal hough_heading::pyramid_words(W, H)"
+    );
+}
+
 pub(crate) const fn check_grid(width: usize, height: usize, row_words_param: usize) {
     assert!(width >= 2 && height >= 2, "W and H must be at least 2");
     assert!(

@@ -19,6 +19,14 @@ pub enum Error {
     /// Stored bytes are not a reference of this configuration (wrong magic,
     /// version, sizes, mode or checksum).
     InvalidReference,
+    /// Stored reference bytes of another format version: prepare the
+    /// reference from its grid and store it again.
+    ReferenceVersion {
+        /// Version found in the bytes.
+        found: u8,
+        /// Version this library reads.
+        expected: u8,
+    },
     /// A scale range outside `0.5 ≤ min ≤ max ≤ 2`.
     InvalidScaleRange,
 }
@@ -33,6 +41,10 @@ impl core::fmt::Display for Error {
                 write!(f, "buffer too small: {needed} bytes needed")
             }
             Error::InvalidReference => write!(f, "bytes are not a reference of this configuration"),
+            Error::ReferenceVersion { found, expected } => write!(
+                f,
+                "reference bytes are format {found}, this library reads format {expected}: prepare and store the reference again"
+            ),
             Error::InvalidScaleRange => write!(f, "scale range must satisfy 0.5 ≤ min ≤ max ≤ 2"),
         }
     }

@@ -2,6 +2,7 @@
 //! reference, with status, confidence and candidates.
 
 use crate::accumulator::{vote_column_split, Column, UNIT_SCALE_Q16};
+use crate::align::{self, Aligner, Placement, Pyramid};
 use crate::correlation::{Correlation, Peak};
 use crate::direction::{match_curve, match_profile, paper_asymmetry, MatchCurve, ProfileMatch};
 use crate::reference::{Reference, PROFILE_COLUMNS};
@@ -11,7 +12,9 @@ use crate::translation::{
     fit_best_shifts, fit_translation, ColumnShift, Translation, WeightedShift,
 };
 use crate::trig::TrigTable;
+use crate::correlation::circular_distance;
 use crate::{Angle, Grid, Score};
+use fixed::types::I16F16;
 use heapless::Vec;
 
 /// Which pipeline the estimator runs.
@@ -48,6 +51,10 @@ pub enum Status {
     /// A rival correlation peak nearly as strong as the best (e.g. a square,
     /// Manhattan room: rival near 90°): see the candidates.
     AmbiguousAxis,
+    /// The best pose explains too little of the second view (verification
+    /// on): less than [`Thresholds::min_overlap`] of its sampled cells lie
+    /// within one cell of the reference. The views may not overlap at all.
+    LowOverlap,
     /// Too few occupied cells or a featureless signature: no angle.
     NoStructure,
 }
@@ -96,14 +103,20 @@ impl HalfTurnTest {
     }
 }
 
-/// A possible rotation and its score (correlation × direction share, in [0, 1]).
+/// A possible rotation and its scores.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Candidate {
     /// Rotation α of the scene (counter-clockwise, DESIGN.md §2).
     pub alpha: Angle,
-    /// Score in [0, 1]; candidates are sorted by it, strongest first.
+    /// Correlation × direction share, in [0, 1].
     pub score: Score,
+    /// With the verification by alignment: how well the best translation for
+    /// this rotation lays the second view onto the reference, in [0, 1] (each
+    /// sampled cell scores 1 on an occupied reference cell, ½ next to one);
+    /// candidates are then sorted by it. `None` without verification
+    /// (candidates sorted by `score`).
+    pub alignment: Option<Score>,
 }
 
 /// Most candidates an [`Estimate`] carries.
@@ -135,9 +148,17 @@ pub struct Thresholds {
     /// [`Status::NoStructure`] when either grid has fewer occupied cells.
     /// Default 8.
     pub min_occupied: u32,
-    /// Largest translation searched by the profile test, as a fraction of the
-    /// ρ range. Default ¼ (±64 px at 128²).
+    /// Largest translation searched by the profile test and the
+    /// verification, as a fraction of the ρ range. Default ¼ (±64 px at 128²).
     pub max_shift_fraction: Score,
+    /// With verification: ambiguous unless the best candidate's alignment is
+    /// at least this multiple of the best one at least 5° away. Default 1.15
+    /// (chosen on the real scan pairs of `../shared/data`, README).
+    pub alignment_ratio: Score,
+    /// With verification: [`Status::LowOverlap`] when the best pose puts less
+    /// than this share of the second view within one cell of the reference.
+    /// Default 0.30 (chosen on the real scan pairs, README).
+    pub min_overlap: Score,
 }
 
 impl Thresholds {
@@ -147,6 +168,8 @@ impl Thresholds {
         direction_margin: Score::from_bits(6_554), // 0.10
         min_occupied: 8,
         max_shift_fraction: Score::from_bits(16_384), // 0.25
+        alignment_ratio: Score::from_bits(75_366),    // 1.15
+        min_overlap: Score::from_bits(19_661),        // 0.30
     };
 }
 
@@ -178,6 +201,10 @@ pub struct Estimate {
     /// Up to [`MAX_CANDIDATES`] rotations, strongest first; `alpha` is one of
     /// them (the first, unless a prior picked another).
     pub candidates: Vec<Candidate, MAX_CANDIDATES>,
+    /// With verification: the share of the second view's sampled cells that
+    /// the chosen pose puts within one cell of the reference, in [0, 1];
+    /// 0 without verification.
+    pub overlap: Score,
     /// The rest of the pose for `alpha`: translation `t` in pixels, scale
     /// (1 unless [`Estimator::with_scale_search`]), residual and the
     /// unobservable direction, if any. Improved mode only; `None` when the
@@ -200,6 +227,7 @@ impl Estimate {
                 flipped: Score::ZERO,
             },
             candidates: Vec::new(),
+            overlap: Score::ZERO,
             translation: None,
         }
     }
@@ -224,12 +252,15 @@ pub struct Estimator<
     const N: usize,
     const HALF: usize,
     const RHO: usize,
+    const PW: usize,
 > {
     mode: Mode,
     thresholds: Thresholds,
     scale: Option<ScaleRange>,
+    verify: bool,
     columns: [Column<RHO>; 2],
     current: Signature<HALF>,
+    pyramid: Pyramid<W, H, PW>,
 }
 
 impl<
@@ -239,18 +270,35 @@ impl<
         const N: usize,
         const HALF: usize,
         const RHO: usize,
-    > Estimator<W, H, RW, N, HALF, RHO>
+        const PW: usize,
+    > Estimator<W, H, RW, N, HALF, RHO, PW>
 {
     /// An estimator with the default [`Thresholds`].
     pub const fn new(mode: Mode) -> Self {
         const { crate::config::check_config(W, H, RW, N, HALF, RHO) };
+        const { crate::config::check_pyramid(W, H, PW) };
         Self {
             mode,
             thresholds: Thresholds::DEFAULT,
             scale: None,
+            verify: true,
             columns: [[0; RHO]; 2],
             current: Signature::empty(mode.peak_kind()),
+            pyramid: Pyramid::new(),
         }
+    }
+
+    /// Turns the verification by alignment on (the default) or off
+    /// (improved mode; the paper mode never verifies). Off, the estimator
+    /// answers from the correlation and the column-profile test alone.
+    pub const fn with_verification(mut self, on: bool) -> Self {
+        self.verify = on;
+        self
+    }
+
+    /// Whether the improved mode verifies its candidates by alignment.
+    pub const fn verification(&self) -> bool {
+        self.verify
     }
 
     /// Replaces the thresholds.
@@ -295,8 +343,8 @@ impl<
     }
 
     /// Prepares `grid` as a reference for this estimator's mode.
-    pub fn reference(&mut self, grid: &Grid<W, H, RW>) -> Reference<W, H, HALF, RHO> {
-        Reference::prepare::<RW, N>(grid, self.mode.peak_kind(), &mut self.columns)
+    pub fn reference(&mut self, grid: &Grid<W, H, RW>) -> Reference<W, H, RW, HALF, RHO> {
+        Reference::prepare::<N>(grid, self.mode.peak_kind(), &mut self.columns)
     }
 
     /// Rotation of `grid` relative to two grids: prepares `first` as the
@@ -309,7 +357,7 @@ impl<
     /// Rotation of `grid` relative to `reference`.
     pub fn estimate(
         &mut self,
-        reference: &Reference<W, H, HALF, RHO>,
+        reference: &Reference<W, H, RW, HALF, RHO>,
         grid: &Grid<W, H, RW>,
     ) -> Estimate {
         self.estimate_with_prior(reference, grid, None)
@@ -321,7 +369,7 @@ impl<
     /// ambiguity). Without any candidate within 3σ the vision answer stands.
     pub fn estimate_with_prior(
         &mut self,
-        reference: &Reference<W, H, HALF, RHO>,
+        reference: &Reference<W, H, RW, HALF, RHO>,
         grid: &Grid<W, H, RW>,
         prior: Option<Prior>,
     ) -> Estimate {
@@ -353,6 +401,9 @@ impl<
         if let Some(r) = rival.filter(|_| rival_score * 4 >= best_score * 3) {
             let (alpha_r, test_r, _) = self.resolve(reference, grid, &r);
             push_pair(&mut candidates, alpha_r, rival_score, &test_r);
+        }
+        if self.mode == Mode::Improved && self.verify && self.scale.is_none() {
+            return self.verified(reference, grid, &correlation, best_score, test, prior);
         }
 
         let axis_ambiguous = rival_score >= best_score.saturating_mul(self.thresholds.rival_ratio);
@@ -402,6 +453,7 @@ impl<
             rival: rival_score,
             half_turn: test,
             candidates,
+            overlap: Score::ZERO,
             translation: if alpha == chosen_alpha {
                 translation
             } else {
@@ -414,7 +466,7 @@ impl<
     /// translation implied by the profile shifts.
     fn resolve(
         &mut self,
-        reference: &Reference<W, H, HALF, RHO>,
+        reference: &Reference<W, H, RW, HALF, RHO>,
         grid: &Grid<W, H, RW>,
         peak: &Peak,
     ) -> (Angle, HalfTurnTest, Option<Translation>) {
@@ -446,20 +498,187 @@ impl<
         }
     }
 
+    /// The verification by alignment (improved mode, on by default): both
+    /// halves of the strongest correlation peaks are scored by their best
+    /// translation ([`Aligner::search`], exact over ±`max_shift`), a local
+    /// angle search runs around the strongest, ICP refines the winner, and
+    /// the status says whether a rival at least 5° away comes close
+    /// ([`Thresholds::alignment_ratio`]) or the pose explains too little of
+    /// the view ([`Thresholds::min_overlap`]).
+    fn verified(
+        &mut self,
+        reference: &Reference<W, H, RW, HALF, RHO>,
+        grid: &Grid<W, H, RW>,
+        correlation: &Correlation,
+        best_score: Score,
+        test: HalfTurnTest,
+        prior: Option<Prior>,
+    ) -> Estimate {
+        self.pyramid.build(reference.grid());
+        let max_shift = self.max_shift() as i32;
+        let separation = Angle::from_steps_q16(((N / 72).max(2) as i64) << 16, N);
+        let mut seeds: Vec<(Placement, Score), SEEDS> = Vec::new();
+        let (winner, points, near, alpha, u_q8) = {
+            let mut aligner = Aligner::new(reference.grid(), &self.pyramid, grid);
+            // 1. Both halves of the strongest distinct peaks, each with the
+            //    best translation over the whole window.
+            let mut peaks: Vec<&Peak, VERIFY_PEAKS> = Vec::new();
+            for peak in &correlation.peaks {
+                let apart = peaks.iter().all(|p| {
+                    circular_distance(p.shift, peak.shift, HALF) >= (N / 72).max(2)
+                });
+                if apart && peaks.push(peak).is_err() {
+                    break;
+                }
+            }
+            for peak in peaks {
+                let alpha = Angle::from_steps_q16(((peak.shift as i64) << 16) + peak.offset_q16(), N);
+                let score = correlation.score(peak);
+                for half in [alpha, alpha + Angle::HALF_TURN] {
+                    aligner.rotate::<N>(half, (0, 0));
+                    if let Some((shift, s)) = aligner.search((0, 0), max_shift, 0) {
+                        let _ = seeds.push((
+                            Placement {
+                                alpha: half,
+                                shift,
+                                score: s,
+                            },
+                            score,
+                        ));
+                    }
+                }
+            }
+            if seeds.is_empty() {
+                return Estimate::no_structure();
+            }
+            seeds.sort_unstable_by(|a, b| b.0.score.cmp(&a.0.score));
+            // 2. Local angle search around the strongest seeds: ±10° in
+            //    strides of ~2°, then halving strides down to one θ step.
+            let strongest = seeds.first().map_or(0, |s| s.0.score);
+            for (seed, _) in seeds.iter_mut().take(ANGLE_SEARCH_SEEDS) {
+                if seed.score * 2 < strongest {
+                    continue;
+                }
+                *seed = angle_search::<W, H, RW, N, PW>(&mut aligner, seed);
+            }
+            seeds.sort_unstable_by(|a, b| b.0.score.cmp(&a.0.score));
+            let Some(&(winner, _)) = seeds.first() else {
+                return Estimate::no_structure();
+            };
+            // 3. ICP below one cell and one θ step; kept unless it loses
+            //    alignment (e.g. drawn onto a neighbouring wall).
+            let (alpha, u_q8) = align::refine::<W, H, RW, N>(reference.grid(), grid, &winner);
+            aligner.rotate::<N>(alpha, u_q8);
+            let refined = aligner.score((0, 0));
+            let (alpha, u_q8, near) = if 16 * refined >= 15 * winner.score {
+                (alpha, u_q8, aligner.near((0, 0)))
+            } else {
+                aligner.rotate::<N>(winner.alpha, (0, 0));
+                let u = (
+                    i64::from(winner.shift.0) << 8,
+                    -(i64::from(winner.shift.1) << 8),
+                );
+                (winner.alpha, u, aligner.near(winner.shift))
+            };
+            (winner, aligner.points(), near, alpha, u_q8)
+        };
+        let max_score = (2 * points).max(1);
+        let alignment = |score: u32| Score::from_bits(((u64::from(score) << 16) / u64::from(max_score)) as i32);
+        let overlap = Score::from_bits(((u64::from(near) << 16) / u64::from(points.max(1))) as i32);
+        // The strongest seed at least 5° from the winner.
+        let rival = seeds
+            .iter()
+            .map(|s| s.0)
+            .filter(|p| p.alpha.distance(winner.alpha) >= separation)
+            .max_by_key(|p| p.score);
+        let rival_score = rival.map_or(0, |p| p.score);
+        let t = self.thresholds;
+        let clear = Score::from_num(winner.score) >= t.alignment_ratio.saturating_mul_int(rival_score as i32);
+        let status = if overlap < t.min_overlap {
+            Status::LowOverlap
+        } else if !clear {
+            let near_half_turn = rival.is_some_and(|r| {
+                r.alpha.distance(winner.alpha + Angle::HALF_TURN) < Angle::from_steps_q16(((N / 8) as i64) << 16, N)
+            });
+            if near_half_turn {
+                Status::AmbiguousDirection
+            } else {
+                Status::AmbiguousAxis
+            }
+        } else {
+            Status::Confident
+        };
+        let mut candidates: Vec<Candidate, MAX_CANDIDATES> = Vec::new();
+        for (placement, correlation) in &seeds {
+            let candidate_alpha = if placement == &winner { alpha } else { placement.alpha };
+            let duplicate = candidates
+                .iter()
+                .any(|c| c.alpha.distance(candidate_alpha) < separation);
+            if !duplicate && !candidates.is_full() {
+                let _ = candidates.push(Candidate {
+                    alpha: candidate_alpha,
+                    score: *correlation,
+                    alignment: Some(alignment(placement.score)),
+                });
+            }
+        }
+        let mut chosen = alpha;
+        let mut status = status;
+        if let Some(prior) = prior {
+            if let Some((picked, alone)) = pick_with_prior(&candidates, prior) {
+                chosen = picked;
+                if alone && status != Status::LowOverlap {
+                    status = Status::Confident;
+                }
+            }
+        }
+        let translation = if chosen == alpha {
+            // The observability comes from the column profiles: a corridor
+            // leaves the shift along its walls free.
+            let (_, _, fit) = self.profile_test(reference, grid, alpha);
+            Some(verified_translation::<N>(alpha, u_q8, fit.as_ref()))
+        } else {
+            None
+        };
+        let best = Score::from_num(winner.score);
+        let separation_share = if winner.score == 0 {
+            Score::ZERO
+        } else {
+            (best - Score::from_num(rival_score)) / best
+        };
+        Estimate {
+            alpha: chosen,
+            status,
+            confidence: verified_confidence(overlap, separation_share, &t),
+            correlation: best_score,
+            rival: correlation
+                .rival((N / 72).max(2))
+                .map_or(Score::ZERO, |p| correlation.score(p)),
+            half_turn: test,
+            candidates,
+            overlap,
+            translation,
+        }
+    }
+
+    /// Largest translation searched, ρ bins (= pixels).
+    fn max_shift(&self) -> usize {
+        self.thresholds
+            .max_shift_fraction
+            .saturating_mul_int(RHO as i32)
+            .to_num::<i32>()
+            .max(1) as usize
+    }
+
     /// The improved direction test and the pose (translation, and scale when
     /// a [`ScaleRange`] is set).
     fn profile_test(
         &mut self,
-        reference: &Reference<W, H, HALF, RHO>,
+        reference: &Reference<W, H, RW, HALF, RHO>,
         grid: &Grid<W, H, RW>,
         alpha: Angle,
     ) -> (Angle, HalfTurnTest, Option<Translation>) {
-        let max_shift = self
-            .thresholds
-            .max_shift_fraction
-            .saturating_mul_int(RHO as i32)
-            .to_num::<i32>()
-            .max(1) as usize;
+        let max_shift = self.max_shift();
         let table = &TrigTable::<N>::TABLE;
         let mut pose_columns: Vec<PoseColumn<'_, RHO>, PROFILE_COLUMNS> = Vec::new();
         let mut direct_shifts: Vec<ColumnShift, PROFILE_COLUMNS> = Vec::new();
@@ -709,6 +928,7 @@ fn push_pair(
         Candidate {
             alpha: first,
             score: correlation * first_share,
+            alignment: None,
         },
     );
     insert_sorted(
@@ -716,6 +936,7 @@ fn push_pair(
         Candidate {
             alpha: second,
             score: correlation * second_share,
+            alignment: None,
         },
     );
 }
@@ -792,4 +1013,119 @@ mod tests {
         mirror(&mut c);
         assert_eq!(c, [0, 0, 0, 0, 4, 3, 0, 1]);
     }
+}
+
+/// Correlation peaks whose two halves the verification scores.
+const VERIFY_PEAKS: usize = 3;
+/// Seeds of the verification: both halves of each peak.
+const SEEDS: usize = 2 * VERIFY_PEAKS;
+/// Seeds that get the local angle search (those at least half as aligned as
+/// the best).
+const ANGLE_SEARCH_SEEDS: usize = 3;
+/// Translation window (± cells) of each rotation of the angle search, around
+/// the shift predicted from the seed.
+const LOCAL_RADIUS: i32 = 3;
+
+/// Searches rotations within ±10° of `seed`, first in strides of about 2°,
+/// then halving the stride around the best down to one θ step; each rotation
+/// gets the best shift within ±[`LOCAL_RADIUS`] of the one predicted from the
+/// seed. Returns the best placement found (the seed if none beats it).
+fn angle_search<const W: usize, const H: usize, const RW: usize, const N: usize, const PW: usize>(
+    aligner: &mut Aligner<'_, W, H, RW, PW>,
+    seed: &Placement,
+) -> Placement {
+    let step = |k: i64| Angle::from_steps_q16(k << 16, N);
+    let reach = (N / 36).max(1) as i64; // 10°
+    let mut stride = (N / 180).max(1) as i64; // 2°
+    let mut best = *seed;
+    let try_at = |aligner: &mut Aligner<'_, W, H, RW, PW>, best: &mut Placement, alpha: Angle| {
+        aligner.rotate::<N>(alpha, (0, 0));
+        let centre = aligner.predict::<N>(seed, alpha);
+        if let Some((shift, score)) = aligner.search(centre, LOCAL_RADIUS, best.score) {
+            *best = Placement { alpha, shift, score };
+        }
+    };
+    let mut k = -reach;
+    while k <= reach {
+        if k != 0 {
+            try_at(aligner, &mut best, seed.alpha + step(k));
+        }
+        k += stride;
+    }
+    while stride > 1 {
+        stride /= 2;
+        let centre = best.alpha;
+        for k in [-stride, stride] {
+            try_at(aligner, &mut best, centre + step(k));
+        }
+    }
+    best
+}
+
+/// The candidate nearest the prior within 3σ, and whether it is the only one
+/// within 3σ.
+fn pick_with_prior(candidates: &[Candidate], prior: Prior) -> Option<(Angle, bool)> {
+    let gate = Angle(prior.sigma.0.saturating_mul(3));
+    let inside = || {
+        candidates
+            .iter()
+            .filter(move |c| c.alpha.distance(prior.alpha) <= gate)
+    };
+    let nearest = inside().min_by_key(|c| c.alpha.distance(prior.alpha))?;
+    Some((nearest.alpha, inside().count() == 1))
+}
+
+/// `t = −R(α)·u` in pixels from the verified pose (`u` in centred Q8 cells),
+/// with the column fit's unobservable direction and column count; along an
+/// unobservable direction `t` keeps no component.
+fn verified_translation<const N: usize>(
+    alpha: Angle,
+    u_q8: (i64, i64),
+    fit: Option<&Translation>,
+) -> Translation {
+    let (cos, sin) = align::sin_cos_q15::<N>(alpha);
+    let (cos, sin) = (i64::from(cos), i64::from(sin));
+    // Q8 × Q15 = Q23 → Q16: >> 7.
+    let mut tx = -(cos * u_q8.0 - sin * u_q8.1) >> 7;
+    let mut ty = -(sin * u_q8.0 + cos * u_q8.1) >> 7;
+    let unobservable = fit.and_then(|f| f.unobservable);
+    if let Some((dx, dy)) = unobservable {
+        let (dx, dy) = (i64::from(dx.to_bits()), i64::from(dy.to_bits()));
+        let along = (tx * dx + ty * dy) >> 16;
+        tx -= (along * dx) >> 16;
+        ty -= (along * dy) >> 16;
+    }
+    let clamp = |v: i64| I16F16::from_bits(v.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32);
+    Translation {
+        x: clamp(tx),
+        y: clamp(ty),
+        scale: I16F16::ONE,
+        residual: fit.map_or(I16F16::ZERO, |f| f.residual),
+        columns: fit.map_or(0, |f| f.columns),
+        unobservable,
+    }
+}
+
+/// Confidence with verification, in [0, 1]: the overlap, scaled linearly to
+/// 0 as the winner's lead over the rival (`1 − rival/best`) falls from twice
+/// the threshold's lead (`1 − 1/alignment_ratio`) to it, and as the overlap
+/// falls from twice `min_overlap` to it.
+fn verified_confidence(overlap: Score, lead: Score, t: &Thresholds) -> Score {
+    let one = Score::ONE;
+    let ramp = |value: Score, threshold: Score| {
+        if threshold <= Score::ZERO {
+            one
+        } else {
+            value
+                .saturating_sub(threshold)
+                .saturating_div(threshold)
+                .clamp(Score::ZERO, one)
+        }
+    };
+    let needed = if t.alignment_ratio > one {
+        one - one.saturating_div(t.alignment_ratio)
+    } else {
+        Score::ZERO
+    };
+    overlap.clamp(Score::ZERO, one) * ramp(lead, needed) * ramp(overlap, t.min_overlap)
 }

@@ -150,6 +150,32 @@ impl<const W: usize, const H: usize, const ROW_WORDS: usize> Grid<W, H, ROW_WORD
     pub fn occupied(&self) -> u32 {
         self.rows.iter().flatten().map(|w| w.count_ones()).sum()
     }
+
+    /// The occupied cells `(col, row)` in raster order (row 0 first, then by
+    /// column), skipping empty words.
+    pub fn occupied_cells(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        self.rows.iter().enumerate().flat_map(|(row, words)| {
+            words.iter().enumerate().flat_map(move |(w, &word)| {
+                SetBits(word).map(move |bit| (32 * w + bit as usize, row))
+            })
+        })
+    }
+}
+
+/// The set bits of a word, lowest first.
+struct SetBits(u32);
+
+impl Iterator for SetBits {
+    type Item = u32;
+
+    fn next(&mut self) -> Option<u32> {
+        if self.0 == 0 {
+            return None;
+        }
+        let bit = self.0.trailing_zeros();
+        self.0 &= self.0 - 1;
+        Some(bit)
+    }
 }
 
 #[cfg(test)]

@@ -3,6 +3,7 @@
 #![doc = include_str!("../README.md")]
 
 mod accumulator;
+mod align;
 mod angle;
 mod config;
 mod correlation;
@@ -21,6 +22,7 @@ pub use accumulator::{
     max_votes_per_bin, vote_column, vote_column_pair, vote_column_split, Accumulator, Column,
     MAX_INV_SCALE_Q16, SPLIT_VOTE_BITS, UNIT_SCALE_Q16,
 };
+pub use align::{pyramid_levels, pyramid_words, ALIGN_POINTS};
 pub use angle::Angle;
 pub use config::{half_turn_steps, recommended_n_theta, rho_bins, row_words};
 pub use correlation::{Correlation, Peak, MAX_PEAKS};
@@ -34,7 +36,7 @@ pub use estimate::{
     MAX_CANDIDATES,
 };
 pub use grid::Grid;
-pub use reference::{Profile, Reference, PROFILE_COLUMNS};
+pub use reference::{Profile, Reference, PROFILE_COLUMNS, REFERENCE_FORMAT};
 pub use scale::{ScaleRange, MAX_COARSE_STEPS};
 pub use scan::{
     range_percentile, Motion, Raster, Scan, ScanStats, SensorOffset, AUTO_MAX_RADIUS_M,
@@ -67,6 +69,7 @@ macro_rules! estimator {
             { $n },
             { $crate::half_turn_steps($n) },
             { $crate::rho_bins($w, $h) },
+            { $crate::pyramid_words($w, $h) },
         >
     };
 }
@@ -78,6 +81,7 @@ macro_rules! reference {
         $crate::Reference<
             { $w },
             { $h },
+            { $crate::row_words($w) },
             { $crate::half_turn_steps($n) },
             { $crate::rho_bins($w, $h) },
         >

@@ -27,25 +27,37 @@ pub struct Profile<const RHO: usize> {
 /// Size: about `4·HALF + 4·(RHO + 8) + 16` bytes (128², `N_THETA` = 360:
 /// 1.8 KiB).
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Reference<const W: usize, const H: usize, const HALF: usize, const RHO: usize> {
+pub struct Reference<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const HALF: usize,
+    const RHO: usize,
+> {
     pub(crate) signature: Signature<HALF>,
     pub(crate) profiles: heapless::Vec<Profile<RHO>, PROFILE_COLUMNS>,
     pub(crate) occupied: u32,
+    pub(crate) grid: Grid<W, H, RW>,
 }
 
-const MAGIC: [u8; 4] = *b"HHR2";
+/// Magic and format version of the stored bytes ("HHR" + version).
+const MAGIC: [u8; 4] = *b"HHR3";
+/// The format version this library writes and reads.
+pub const REFERENCE_FORMAT: u8 = 3;
 
-impl<const W: usize, const H: usize, const HALF: usize, const RHO: usize>
-    Reference<W, H, HALF, RHO>
+impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const RHO: usize>
+    Reference<W, H, RW, HALF, RHO>
 {
     /// Bytes of [`Self::to_bytes`]: header 20, signature `4·HALF`, profiles
-    /// `4·(2 + RHO)`, checksum 4.
-    pub const BYTES: usize = 20 + 4 * HALF + PROFILE_COLUMNS * (2 + RHO) + 4;
+    /// `4·(2 + RHO)`, the grid `4·RW·H` (for the verification by alignment),
+    /// checksum 4. 128², `N_THETA` = 360: 4 164 bytes, of which the grid is
+    /// 2 048.
+    pub const BYTES: usize = 20 + 4 * HALF + PROFILE_COLUMNS * (2 + RHO) + 4 * RW * H + 4;
 
     /// Prepares `grid` as a reference: streams its signature, then re-votes the
     /// [`PROFILE_COLUMNS`] strongest, well-separated columns to keep their
     /// profiles. `columns` is scratch. `N = 2·HALF`.
-    pub fn prepare<const RW: usize, const N: usize>(
+    pub fn prepare<const N: usize>(
         grid: &Grid<W, H, RW>,
         kind: PeakKind,
         columns: &mut [Column<RHO>; 2],
@@ -69,7 +81,13 @@ impl<const W: usize, const H: usize, const HALF: usize, const RHO: usize>
             signature,
             profiles,
             occupied: grid.occupied(),
+            grid: grid.clone(),
         }
+    }
+
+    /// The reference grid itself, kept for the verification by alignment.
+    pub const fn grid(&self) -> &Grid<W, H, RW> {
+        &self.grid
     }
 
     /// The signature `D`, `S` of the reference.
@@ -124,6 +142,9 @@ impl<const W: usize, const H: usize, const HALF: usize, const RHO: usize>
                 None => w.skip(2 + RHO),
             }
         }
+        for word in self.grid.words().iter().flatten() {
+            w.put(&word.to_le_bytes());
+        }
         let sum = fnv1a(&w.out[..w.at]);
         w.put(&sum.to_le_bytes());
         Ok(Self::BYTES)
@@ -133,10 +154,21 @@ impl<const W: usize, const H: usize, const HALF: usize, const RHO: usize>
     /// `HALF` and `RHO`.
     ///
     /// # Errors
-    /// [`Error::BufferTooSmall`] if `bytes` is short; [`Error::InvalidReference`]
-    /// if the magic, grid size, θ steps, ρ bins, mode, profile columns or
-    /// checksum do not match.
+    /// [`Error::ReferenceVersion`] if the bytes are a reference of another
+    /// format version (e.g. version 2, written before the grid was kept: prepare
+    /// and store the reference again); [`Error::BufferTooSmall`] if `bytes` is
+    /// short; [`Error::InvalidReference`] if the magic, grid size, θ steps, ρ
+    /// bins, mode, profile columns or checksum do not match, or the grid
+    /// disagrees with the stored cell count or has bits beyond `W`.
     pub fn from_bytes(bytes: &[u8]) -> Result<Self, Error> {
+        if let Some(&[b'H', b'H', b'R', version]) = bytes.get(..4) {
+            if version != MAGIC[3] {
+                return Err(Error::ReferenceVersion {
+                    found: version.wrapping_sub(b'0'),
+                    expected: REFERENCE_FORMAT,
+                });
+            }
+        }
         let bytes = bytes.get(..Self::BYTES).ok_or(Error::BufferTooSmall {
             needed: Self::BYTES,
         })?;
@@ -181,10 +213,19 @@ impl<const W: usize, const H: usize, const HALF: usize, const RHO: usize>
                 let _ = profiles.push(Profile { theta, counts });
             }
         }
+        let mut rows = [[0u32; RW]; H];
+        for word in rows.iter_mut().flatten() {
+            *word = u32::from_le_bytes(r.take());
+        }
+        let grid = Grid::from_words(rows);
+        if grid.words() != &rows || grid.occupied() != occupied {
+            return Err(Error::InvalidReference);
+        }
         Ok(Self {
             signature,
             profiles,
             occupied,
+            grid,
         })
     }
 }

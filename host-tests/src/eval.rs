@@ -285,8 +285,9 @@ pub fn run_pair<
     const N: usize,
     const HALF: usize,
     const RHO: usize,
+    const PW: usize,
 >(
-    estimator: &mut Estimator<W, H, RW, N, HALF, RHO>,
+    estimator: &mut Estimator<W, H, RW, N, HALF, RHO, PW>,
     pair: &Pair,
     truth: &Transform,
     half_turn_symmetric: bool,

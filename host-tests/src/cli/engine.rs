@@ -5,7 +5,7 @@
 //! [`engine`] picks one at run time.
 
 use hough_heading::{
-    half_turn_steps, rho_bins, row_words, Accumulator, Correlation, Estimate, Estimator, Grid,
+    half_turn_steps, pyramid_words, rho_bins, row_words, Accumulator, Correlation, Estimate, Estimator, Grid,
     Mode, PeakKind, Raster, ScaleRange, Scan, ScanStats, Signature, Thresholds,
 };
 
@@ -61,6 +61,8 @@ pub trait Engine {
     fn set_thresholds(&mut self, thresholds: Thresholds);
     /// Makes the improved mode search the scale over `range` (`None`: s = 1).
     fn set_scale_search(&mut self, range: Option<ScaleRange>);
+    /// Turns the improved mode's verification by alignment on or off.
+    fn set_verification(&mut self, on: bool);
     /// Clears the grid of `view` and draws `scan` into it.
     fn rasterize(&mut self, view: View, scan: &Scan<'_>, raster: &Raster) -> ScanStats;
     /// Replaces the grid of `view` by `image` (cells beyond the grid are
@@ -81,10 +83,11 @@ struct Config<
     const N: usize,
     const HALF: usize,
     const RHO: usize,
+    const PW: usize,
 > {
     grids: [Grid<W, H, RW>; 2],
-    improved: Estimator<W, H, RW, N, HALF, RHO>,
-    paper: Estimator<W, H, RW, N, HALF, RHO>,
+    improved: Estimator<W, H, RW, N, HALF, RHO, PW>,
+    paper: Estimator<W, H, RW, N, HALF, RHO, PW>,
 }
 
 impl<
@@ -94,7 +97,8 @@ impl<
         const N: usize,
         const HALF: usize,
         const RHO: usize,
-    > Engine for Config<W, H, RW, N, HALF, RHO>
+        const PW: usize,
+    > Engine for Config<W, H, RW, N, HALF, RHO, PW>
 {
     fn size(&self) -> usize {
         W
@@ -106,13 +110,21 @@ impl<
 
     fn set_thresholds(&mut self, thresholds: Thresholds) {
         let scale = self.improved.scale_search();
-        self.improved = Estimator::new(Mode::Improved).with_thresholds(thresholds);
+        let verify = self.improved.verification();
+        self.improved = Estimator::new(Mode::Improved)
+            .with_thresholds(thresholds)
+            .with_verification(verify);
         self.improved.set_scale_search(scale);
         self.paper = Estimator::new(Mode::Paper).with_thresholds(thresholds);
     }
 
     fn set_scale_search(&mut self, range: Option<ScaleRange>) {
         self.improved.set_scale_search(range);
+    }
+
+    fn set_verification(&mut self, on: bool) {
+        let improved = self.improved.clone().with_verification(on);
+        self.improved = improved;
     }
 
     fn rasterize(&mut self, view: View, scan: &Scan<'_>, raster: &Raster) -> ScanStats {
@@ -227,6 +239,7 @@ macro_rules! configurations {
                     $n,
                     { half_turn_steps($n) },
                     { rho_bins($size, $size) },
+                    { pyramid_words($size, $size) },
                 > {
                     grids: [Grid::new(), Grid::new()],
                     improved: Estimator::new(Mode::Improved),

@@ -167,6 +167,7 @@ pub fn status_name(status: Status) -> &'static str {
         Status::Confident => "confident",
         Status::AmbiguousDirection => "ambiguous_direction",
         Status::AmbiguousAxis => "ambiguous_axis",
+        Status::LowOverlap => "low_overlap",
         Status::NoStructure => "no_structure",
     }
 }
@@ -186,13 +187,20 @@ pub struct OutputLine {
     pub index: usize,
     /// Estimated heading change dθ, degrees in (−180, 180] (null on error).
     pub dtheta_deg: Option<f64>,
-    /// `confident`, `ambiguous_direction`, `ambiguous_axis`, `no_structure`
-    /// or `error`.
+    /// `confident`, `ambiguous_direction`, `ambiguous_axis`, `low_overlap`,
+    /// `no_structure` or `error`.
     pub status: &'static str,
     /// In [0, 1] (null on error).
     pub confidence: Option<f64>,
     /// Candidate heading changes, strongest first, degrees.
     pub candidates_deg: Vec<f64>,
+    /// Each candidate's alignment score in [0, 1] (verification on).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub alignments: Vec<f64>,
+    /// Share of scan 2 the chosen pose puts within one cell of scan 1
+    /// (verification on).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub overlap: Option<f64>,
     /// Robot displacement x, metres, frame of scan 1 (null when unknown).
     pub dx_m: Option<f64>,
     /// Robot displacement y, metres.
@@ -272,6 +280,17 @@ impl OutputLine {
                 .iter()
                 .map(|c| round(wrap_deg(-f64::from(c.alpha.to_degrees())), 4))
                 .collect(),
+            alignments: e
+                .candidates
+                .iter()
+                .filter_map(|c| c.alignment)
+                .map(|a| round(a.to_num::<f64>(), 4))
+                .collect(),
+            overlap: e
+                .candidates
+                .iter()
+                .any(|c| c.alignment.is_some())
+                .then(|| round(e.overlap.to_num::<f64>(), 4)),
             dx_m: p.translation.map(|t| round(t.0, 4)),
             dy_m: p.translation.map(|t| round(t.1, 4)),
             correlation: Some(round(e.correlation.to_num::<f64>(), 4)),
@@ -299,6 +318,8 @@ impl OutputLine {
             status: "error",
             confidence: None,
             candidates_deg: Vec::new(),
+            alignments: Vec::new(),
+            overlap: None,
             dx_m: None,
             dy_m: None,
             correlation: None,
