@@ -261,16 +261,28 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
 
     /// Score of the rotated points shifted by `(dc, dr)` cells.
     pub(crate) fn score(&self, shift: (i32, i32)) -> u32 {
-        self.turned()
-            .iter()
-            .map(|&(c, r)| {
-                point_score(
-                    self.reference,
-                    i32::from(c) + shift.0,
-                    i32::from(r) + shift.1,
-                )
-            })
-            .sum()
+        self.score_above(shift, 0)
+    }
+
+    /// [`Self::score`] if it exceeds `floor`, else 0 (stops as soon as the
+    /// points left cannot lift it above `floor`). With `floor` 0 it is the
+    /// score itself.
+    fn score_above(&self, shift: (i32, i32), floor: u32) -> u32 {
+        let mut reachable = 2 * self.points();
+        let mut total = 0;
+        for &(c, r) in self.turned() {
+            let s = point_score(
+                self.reference,
+                i32::from(c) + shift.0,
+                i32::from(r) + shift.1,
+            );
+            total += s;
+            reachable -= 2 - s;
+            if floor > 0 && reachable <= floor {
+                return 0;
+            }
+        }
+        total
     }
 
     /// Points within one cell of the reference when shifted by `(dc, dr)`.
@@ -292,21 +304,46 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
     }
 
     /// Upper bound of [`Self::score`] over the block of shifts
-    /// `[c0, c0 + 2ᵏ) × [r0, r0 + 2ᵏ)`, level `k ≥ 1`.
-    fn bound(&self, k: usize, c0: i32, r0: i32) -> u32 {
+    /// `[c0, c0 + 2ᵏ) × [r0, r0 + 2ᵏ)`, level `k ≥ 1`: twice the number of
+    /// points with an occupied reference cell within their reach (the block
+    /// widened by one cell). Up to level [`EXACT_LEVELS`] the reach is tested
+    /// exactly on the grid's rows (`2ᵏ + 2` rows a point); above, on the
+    /// pyramid (2–3 cells of `2ᵏ` per axis: looser, but few blocks are that
+    /// large).
+    ///
+    /// Returns 0 as soon as the bound cannot exceed `floor`.
+    fn bound(&self, k: usize, c0: i32, r0: i32, floor: u32) -> u32 {
         let side = 1i32 << k;
-        let hits = self
-            .turned()
-            .iter()
-            .filter(|&&(c, r)| {
-                // Reference cells a point can reach (±1 for the neighbours).
+        let rows = self.reference.words();
+        // 2·hits > floor ⟺ hits ≥ floor/2 + 1: at most this many may miss.
+        let Some(allowed) = self.points().checked_sub(floor / 2 + 1) else {
+            return 0;
+        };
+        let mut misses = 0;
+        let mut hits = 0;
+        for &(c, r) in self.turned() {
+            let reached = {
                 let (a, b) = (i32::from(c) + c0 - 1, i32::from(r) + r0 - 1);
-                let (lo_c, hi_c) = (a >> k, (a + side + 1) >> k);
-                let (lo_r, hi_r) = (b >> k, (b + side + 1) >> k);
-                let n = (hi_c - lo_c + 1) as u32;
-                (lo_r..=hi_r).any(|row| bits(self.pyramid.row(k, row), lo_c, n) != 0)
-            })
-            .count() as u32;
+                if k <= EXACT_LEVELS {
+                    let width = (side + 2) as u32;
+                    (b.max(0)..(b + side + 2).min(H as i32))
+                        .any(|row| bits(rows.get(row as usize).map_or(&[], |w| w.as_slice()), a, width) != 0)
+                } else {
+                    let (lo_c, hi_c) = (a >> k, (a + side + 1) >> k);
+                    let (lo_r, hi_r) = (b >> k, (b + side + 1) >> k);
+                    let n = (hi_c - lo_c + 1) as u32;
+                    (lo_r..=hi_r).any(|row| bits(self.pyramid.row(k, row), lo_c, n) != 0)
+                }
+            };
+            if reached {
+                hits += 1;
+            } else {
+                misses += 1;
+                if misses > allowed {
+                    return 0;
+                }
+            }
+        }
         2 * hits
     }
 
@@ -336,9 +373,9 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
             for j in 0..blocks {
                 let (c0, r0) = (origin.0 + j * side, origin.1 + i * side);
                 let b = if top == 0 {
-                    self.score((c0, r0))
+                    self.score_above((c0, r0), floor)
                 } else {
-                    self.bound(top, c0, r0)
+                    self.bound(top, c0, r0, floor)
                 };
                 if b > floor {
                     let _ = tops.push((b, c0, r0));
@@ -373,9 +410,9 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
                     let cb = if c > last.0 || r > last.1 {
                         0
                     } else if k == 1 {
-                        self.score((c, r))
+                        self.score_above((c, r), floor)
                     } else {
-                        self.bound(k - 1, c, r)
+                        self.bound(k - 1, c, r, floor)
                     };
                     *child = (cb, c, r);
                 }
@@ -391,6 +428,10 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
         best
     }
 }
+
+/// Levels whose bound is tested exactly on the grid rows (`2ᵏ + 2 ≤ 10`
+/// rows and bits a point).
+const EXACT_LEVELS: usize = 3;
 
 /// Most top-level blocks of one search (window ≤ 4·2ᴸ + … per axis).
 const TOP_BLOCKS: usize = 64;

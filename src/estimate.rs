@@ -403,7 +403,11 @@ impl<
             push_pair(&mut candidates, alpha_r, rival_score, &test_r);
         }
         if self.mode == Mode::Improved && self.verify && self.scale.is_none() {
-            return self.verified(reference, grid, &correlation, best_score, test, prior);
+            let hint = translation.map(|t| match test.chosen {
+                HalfTurn::Direct => (alpha_best, t),
+                HalfTurn::Flipped => (alpha_best + Angle::HALF_TURN, t),
+            });
+            return self.verified(reference, grid, &correlation, best_score, test, prior, hint);
         }
 
         let axis_ambiguous = rival_score >= best_score.saturating_mul(self.thresholds.rival_ratio);
@@ -513,6 +517,7 @@ impl<
         best_score: Score,
         test: HalfTurnTest,
         prior: Option<Prior>,
+        hint: Option<(Angle, Translation)>,
     ) -> Estimate {
         self.pyramid.build(reference.grid());
         let max_shift = self.max_shift() as i32;
@@ -534,9 +539,29 @@ impl<
             for peak in peaks {
                 let alpha = Angle::from_steps_q16(((peak.shift as i64) << 16) + peak.offset_q16(), N);
                 let score = correlation.score(peak);
-                for half in [alpha, alpha + Angle::HALF_TURN] {
+                // The half the profile test chose goes first: its translation
+                // gives the search a floor at once.
+                let halves = match hint {
+                    Some((h, _)) if h == alpha + Angle::HALF_TURN => [h, alpha],
+                    _ => [alpha, alpha + Angle::HALF_TURN],
+                };
+                for half in halves {
                     aligner.rotate::<N>(half, (0, 0));
-                    if let Some((shift, s)) = aligner.search((0, 0), max_shift, 0) {
+                    // A seed that cannot reach the best so far divided by the
+                    // ambiguity ratio cannot change the decision: its search
+                    // stops there (and it is not a candidate).
+                    let floor = seeds
+                        .iter()
+                        .map(|s| s.0.score)
+                        .max()
+                        .map_or(0, |best| irrelevant_below(best, self.thresholds.alignment_ratio));
+                    let floor = match hint {
+                        Some((h, t)) if h == half => {
+                            floor.max(aligner.score(hint_shift::<N>(h, &t)).saturating_sub(1))
+                        }
+                        _ => floor,
+                    };
+                    if let Some((shift, s)) = aligner.search((0, 0), max_shift, floor) {
                         let _ = seeds.push((
                             Placement {
                                 alpha: half,
@@ -1060,6 +1085,27 @@ fn angle_search<const W: usize, const H: usize, const RW: usize, const N: usize,
         }
     }
     best
+}
+
+/// The shift (reference cells `(Δcol, Δrow)`) of the translation `t` fitted
+/// by the profile test for rotation α: `u = −R(−α)·t`.
+fn hint_shift<const N: usize>(alpha: Angle, t: &Translation) -> (i32, i32) {
+    let (cos, sin) = align::sin_cos_q15::<N>(alpha);
+    let (cos, sin) = (i64::from(cos), i64::from(sin));
+    let (tx, ty) = (i64::from(t.x.to_bits()), i64::from(t.y.to_bits()));
+    // R(−α)·t in Q31 → cells; u = −that; Δrow = −u_y.
+    let ux = -(cos * tx + sin * ty) >> 31;
+    let uy = -(cos * ty - sin * tx) >> 31;
+    (ux as i32, -uy as i32)
+}
+
+/// The largest score that cannot make `best` ambiguous: `⌊best / ratio⌋`
+/// (0 for a ratio ≤ 1, where every score counts).
+fn irrelevant_below(best: u32, ratio: Score) -> u32 {
+    if ratio <= Score::ONE {
+        return 0;
+    }
+    ((u64::from(best) << 16) / ratio.to_bits() as u64) as u32
 }
 
 /// The candidate nearest the prior within 3σ, and whether it is the only one
