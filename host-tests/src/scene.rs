@@ -551,8 +551,13 @@ pub struct Damage {
     /// Outlier pixels added uniformly at random over the free cells, as a
     /// fraction of the outline's pixel count.
     pub outlier_fraction: f64,
-    /// Fraction of the outline's length removed, as 1–3 contiguous gaps.
+    /// Fraction of the outline's length removed, as 1–3 contiguous gaps
+    /// (the same stretches in both views of a pair).
     pub missing_fraction: f64,
+    /// Fraction of the outline's length each view of a pair loses as one
+    /// contiguous stretch of its own, drawn independently per view: an
+    /// occlusion that differs between the two views (0: none).
+    pub occluded_fraction: f64,
 }
 
 impl Damage {
@@ -561,24 +566,37 @@ impl Damage {
         jitter_px: 0.0,
         outlier_fraction: 0.0,
         missing_fraction: 0.0,
+        occluded_fraction: 0.0,
     };
     /// 0.5 px jitter, 10 % outliers, 10 % missing.
     pub const MODERATE: Self = Self {
         jitter_px: 0.5,
         outlier_fraction: 0.1,
         missing_fraction: 0.1,
+        occluded_fraction: 0.0,
     };
     /// 1 px jitter, 30 % outliers, 30 % missing.
     pub const HARSH: Self = Self {
         jitter_px: 1.0,
         outlier_fraction: 0.3,
         missing_fraction: 0.3,
+        occluded_fraction: 0.0,
     };
-    /// The three presets with their names (`clean`, `moderate`, `harsh`).
-    pub const PRESETS: [(&'static str, Self); 3] = [
+    /// 0.5 px jitter, 10 % outliers, and each view loses its own contiguous
+    /// 25 % of the outline (partial views whose occlusions differ).
+    pub const OCCLUDED: Self = Self {
+        jitter_px: 0.5,
+        outlier_fraction: 0.1,
+        missing_fraction: 0.0,
+        occluded_fraction: 0.25,
+    };
+    /// The presets with their names (`clean`, `moderate`, `harsh`,
+    /// `occluded`).
+    pub const PRESETS: [(&'static str, Self); 4] = [
         ("clean", Self::CLEAN),
         ("moderate", Self::MODERATE),
         ("harsh", Self::HARSH),
+        ("occluded", Self::OCCLUDED),
     ];
 }
 
@@ -759,7 +777,8 @@ pub fn render<R: Rng + ?Sized>(
 /// Damage realisation: the same sample points are used for both views (the
 /// points of `I2` are exactly the transformed points of `I1`, sampled densely
 /// enough for both), and the same stretches of the outline are missing in
-/// both (same arc positions); the jitter and the outlier pixels are drawn
+/// both (same arc positions); the jitter, the outlier pixels and each view's
+/// own occluded stretch ([`Damage::occluded_fraction`]) are drawn
 /// independently for each view. With [`Damage::CLEAN`], `I2` is the
 /// rasterization of exactly the transformed point set of `I1`.
 ///
@@ -787,13 +806,29 @@ pub fn render_pair(
         rng
     };
     let gaps = missing_gaps(&mut stream(0), damage.missing_fraction);
+    // Each view's own occlusion: one stretch at a random arc position.
+    let occlusion = |s: u64| {
+        let mut rng = stream(s);
+        let len = damage.occluded_fraction.clamp(0.0, 1.0);
+        let mut own = gaps.clone();
+        if len > 0.0 {
+            let start = rng.gen_range(0.0..1.0);
+            // The arc wraps: a stretch past 1 continues from 0.
+            own.push((start, (start + len).min(1.0)));
+            if start + len > 1.0 {
+                own.push((0.0, start + len - 1.0));
+            }
+        }
+        own
+    };
+    let (gaps1, gaps2) = (occlusion(5), occlusion(6));
     let samples = sample_outline(
         &scene.scaled(fit),
         SAMPLE_SPACING_PX / transform.scale.max(1.0),
     );
     let i1 = rasterize(
         samples.iter().copied(),
-        &gaps,
+        &gaps1,
         damage,
         width,
         height,
@@ -803,7 +838,7 @@ pub fn render_pair(
     let moved = samples.iter().map(|&(p, arc)| (transform.apply(p), arc));
     let i2 = rasterize(
         moved,
-        &gaps,
+        &gaps2,
         damage,
         width,
         height,
@@ -1042,8 +1077,10 @@ mod tests {
                         "{name}"
                     );
                     let missing = view.missing_samples as f64 / view.samples as f64;
+                    // Shared gaps and the view's own occlusion may overlap.
+                    let lost = damage.missing_fraction + damage.occluded_fraction;
                     assert!(
-                        (missing - damage.missing_fraction).abs() < 0.01,
+                        missing <= lost + 0.01 && missing >= lost.min(1.0) - damage.missing_fraction.min(damage.occluded_fraction) - 0.01,
                         "{name}: missing {missing}"
                     );
                     assert!(view.clipped_samples <= view.samples / 1000, "{name}");
