@@ -339,8 +339,13 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
                 let (a, b) = (i32::from(c) + c0 - 1, i32::from(r) + r0 - 1);
                 if k <= EXACT_LEVELS {
                     let width = (side + 2) as u32;
-                    (b.max(0)..(b + side + 2).min(H as i32))
-                        .any(|row| bits(rows.get(row as usize).map_or(&[], |w| w.as_slice()), a, width) != 0)
+                    (b.max(0)..(b + side + 2).min(H as i32)).any(|row| {
+                        bits(
+                            rows.get(row as usize).map_or(&[], |w| w.as_slice()),
+                            a,
+                            width,
+                        ) != 0
+                    })
                 } else {
                     let (lo_c, hi_c) = (a >> k, (a + side + 1) >> k);
                     let (lo_r, hi_r) = (b >> k, (b + side + 1) >> k);
@@ -567,7 +572,10 @@ pub(crate) fn refine<const W: usize, const H: usize, const RW: usize, const N: u
 ) -> (Angle, (i64, i64)) {
     let mut alpha = start.alpha;
     // Cells (Δcol, Δrow) → centred (Δx, Δy) = (Δcol, −Δrow), Q8.
-    let mut u = (i64::from(start.shift.0) << 8, -(i64::from(start.shift.1) << 8));
+    let mut u = (
+        i64::from(start.shift.0) << 8,
+        -(i64::from(start.shift.1) << 8),
+    );
     for _ in 0..ICP_ITERATIONS {
         let (cos, sin) = sin_cos_q15::<N>(alpha);
         let mut sums = PairSums::default();
@@ -649,7 +657,10 @@ fn nearest_occupied<const W: usize, const H: usize, const RW: usize>(
             let (ex, ey) = ((cc << 8) - col_q8, (rr << 8) - row_q8);
             let d = ex * ex + ey * ey;
             if best.is_none_or(|(bd, _)| d < bd) {
-                let centre = ((cc << 8) - ((W as i64 - 1) << 7), ((H as i64 - 1) << 7) - (rr << 8));
+                let centre = (
+                    (cc << 8) - ((W as i64 - 1) << 7),
+                    ((H as i64 - 1) << 7) - (rr << 8),
+                );
                 best = Some((d, (centre, (cc, rr))));
             }
         }
@@ -749,7 +760,13 @@ impl LineSums {
         h[1][1] += ridge.max(1);
         h[2][2] += ridge.max(1);
         // Scale so every entry is below 2⁴⁰: 3-term products stay in i128.
-        let big = h.iter().flatten().chain(g.iter()).map(|v| v.unsigned_abs()).max().unwrap_or(0);
+        let big = h
+            .iter()
+            .flatten()
+            .chain(g.iter())
+            .map(|v| v.unsigned_abs())
+            .max()
+            .unwrap_or(0);
         let shift = (128 - big.leading_zeros()).saturating_sub(40);
         for v in h.iter_mut().flatten().chain(g.iter_mut()) {
             *v >>= shift;
@@ -773,7 +790,10 @@ impl LineSums {
         }
         let delta = (x[0] as i64).clamp(-MAX_ICP_STEP_Q16, MAX_ICP_STEP_Q16);
         // τ is in Q8: limit a step to 2 cells.
-        let step = ((x[1] as i64).clamp(-512, 512), (x[2] as i64).clamp(-512, 512));
+        let step = (
+            (x[1] as i64).clamp(-512, 512),
+            (x[2] as i64).clamp(-512, 512),
+        );
         Some((delta, step))
     }
 }

@@ -3,6 +3,7 @@
 
 use crate::accumulator::{vote_column_split, Column, UNIT_SCALE_Q16};
 use crate::align::{self, Aligner, Placement, Pyramid};
+use crate::correlation::circular_distance;
 use crate::correlation::{Correlation, Peak};
 use crate::direction::{match_curve, match_profile, paper_asymmetry, MatchCurve, ProfileMatch};
 use crate::reference::{Reference, PROFILE_COLUMNS};
@@ -12,7 +13,6 @@ use crate::translation::{
     fit_best_shifts, fit_translation, ColumnShift, Translation, WeightedShift,
 };
 use crate::trig::TrigTable;
-use crate::correlation::circular_distance;
 use crate::{Angle, Grid, Score};
 use fixed::types::I16F16;
 use heapless::Vec;
@@ -533,15 +533,16 @@ impl<
             //    best translation over the whole window.
             let mut peaks: Vec<&Peak, VERIFY_PEAKS> = Vec::new();
             for peak in &correlation.peaks {
-                let apart = peaks.iter().all(|p| {
-                    circular_distance(p.shift, peak.shift, HALF) >= (N / 72).max(2)
-                });
+                let apart = peaks
+                    .iter()
+                    .all(|p| circular_distance(p.shift, peak.shift, HALF) >= (N / 72).max(2));
                 if apart && peaks.push(peak).is_err() {
                     break;
                 }
             }
             for peak in peaks {
-                let alpha = Angle::from_steps_q16(((peak.shift as i64) << 16) + peak.offset_q16(), N);
+                let alpha =
+                    Angle::from_steps_q16(((peak.shift as i64) << 16) + peak.offset_q16(), N);
                 let score = correlation.score(peak);
                 // The half the profile test chose goes first: its translation
                 // gives the search a floor at once.
@@ -554,11 +555,9 @@ impl<
                     // A seed that cannot reach the best so far divided by the
                     // ambiguity ratio cannot change the decision: its search
                     // stops there (and it is not a candidate).
-                    let floor = seeds
-                        .iter()
-                        .map(|s| s.0.score)
-                        .max()
-                        .map_or(0, |best| irrelevant_below(best, self.thresholds.alignment_ratio));
+                    let floor = seeds.iter().map(|s| s.0.score).max().map_or(0, |best| {
+                        irrelevant_below(best, self.thresholds.alignment_ratio)
+                    });
                     let floor = match hint {
                         Some((h, t)) if h == half => {
                             floor.max(aligner.score(hint_shift::<N>(h, &t)).saturating_sub(1))
@@ -613,7 +612,8 @@ impl<
             (winner, aligner.points(), near, alpha, u_q8)
         };
         let max_score = (2 * points).max(1);
-        let alignment = |score: u32| Score::from_bits(((u64::from(score) << 16) / u64::from(max_score)) as i32);
+        let alignment =
+            |score: u32| Score::from_bits(((u64::from(score) << 16) / u64::from(max_score)) as i32);
         let overlap = Score::from_bits(((u64::from(near) << 16) / u64::from(points.max(1))) as i32);
         // The strongest seed at least 5° from the winner.
         let rival = seeds
@@ -623,12 +623,14 @@ impl<
             .max_by_key(|p| p.score);
         let rival_score = rival.map_or(0, |p| p.score);
         let t = self.thresholds;
-        let clear = Score::from_num(winner.score) >= t.alignment_ratio.saturating_mul_int(rival_score as i32);
+        let clear = Score::from_num(winner.score)
+            >= t.alignment_ratio.saturating_mul_int(rival_score as i32);
         let status = if overlap < t.min_overlap {
             Status::LowOverlap
         } else if !clear {
             let near_half_turn = rival.is_some_and(|r| {
-                r.alpha.distance(winner.alpha + Angle::HALF_TURN) < Angle::from_steps_q16(((N / 8) as i64) << 16, N)
+                r.alpha.distance(winner.alpha + Angle::HALF_TURN)
+                    < Angle::from_steps_q16(((N / 8) as i64) << 16, N)
             });
             if near_half_turn {
                 Status::AmbiguousDirection
@@ -640,7 +642,11 @@ impl<
         };
         let mut candidates: Vec<Candidate, MAX_CANDIDATES> = Vec::new();
         for (placement, correlation) in &seeds {
-            let candidate_alpha = if placement == &winner { alpha } else { placement.alpha };
+            let candidate_alpha = if placement == &winner {
+                alpha
+            } else {
+                placement.alpha
+            };
             let duplicate = candidates
                 .iter()
                 .any(|c| c.alpha.distance(candidate_alpha) < separation);
@@ -666,7 +672,12 @@ impl<
             // The observability comes from the column profiles: a corridor
             // leaves the shift along its walls free.
             let (_, _, fit) = self.profile_test(reference, grid, alpha);
-            Some(verified_translation::<N>(alpha, u_q8, scale_q16, fit.as_ref()))
+            Some(verified_translation::<N>(
+                alpha,
+                u_q8,
+                scale_q16,
+                fit.as_ref(),
+            ))
         } else {
             None
         };
@@ -1060,7 +1071,13 @@ const LOCAL_RADIUS: i32 = 3;
 /// then halving the stride around the best down to one θ step; each rotation
 /// gets the best shift within ±[`LOCAL_RADIUS`] of the one predicted from the
 /// seed. Returns the best placement found (the seed if none beats it).
-fn angle_search<const W: usize, const H: usize, const RW: usize, const N: usize, const PW: usize>(
+fn angle_search<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const PW: usize,
+>(
     aligner: &mut Aligner<'_, W, H, RW, PW>,
     seed: &Placement,
 ) -> Placement {
@@ -1076,9 +1093,12 @@ fn angle_search<const W: usize, const H: usize, const RW: usize, const N: usize,
     let try_at = |aligner: &mut Aligner<'_, W, H, RW, PW>, best: &mut Placement, alpha: Angle| {
         aligner.rotate::<N>(alpha, (0, 0));
         let centre = aligner.predict::<N>(seed, alpha);
-        if let Some((shift, score)) = aligner.search(centre, LOCAL_RADIUS, best.score.max(floor))
-        {
-            *best = Placement { alpha, shift, score };
+        if let Some((shift, score)) = aligner.search(centre, LOCAL_RADIUS, best.score.max(floor)) {
+            *best = Placement {
+                alpha,
+                shift,
+                score,
+            };
         }
     };
     let mut k = -reach;
@@ -1154,7 +1174,8 @@ fn verified_translation<const N: usize>(
         tx -= (along * dx) >> 16;
         ty -= (along * dy) >> 16;
     }
-    let clamp = |v: i64| I16F16::from_bits(v.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32);
+    let clamp =
+        |v: i64| I16F16::from_bits(v.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32);
     Translation {
         x: clamp(tx),
         y: clamp(ty),

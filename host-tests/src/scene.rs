@@ -1080,7 +1080,11 @@ mod tests {
                     // Shared gaps and the view's own occlusion may overlap.
                     let lost = damage.missing_fraction + damage.occluded_fraction;
                     assert!(
-                        missing <= lost + 0.01 && missing >= lost.min(1.0) - damage.missing_fraction.min(damage.occluded_fraction) - 0.01,
+                        missing <= lost + 0.01
+                            && missing
+                                >= lost.min(1.0)
+                                    - damage.missing_fraction.min(damage.occluded_fraction)
+                                    - 0.01,
                         "{name}: missing {missing}"
                     );
                     assert!(view.clipped_samples <= view.samples / 1000, "{name}");

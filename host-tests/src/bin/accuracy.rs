@@ -40,7 +40,8 @@ use host_tests::eval::{
 };
 use host_tests::scene::{render_pair, Damage, SceneKind, Transform};
 use hough_heading::{
-    half_turn_steps, pyramid_words, rho_bins, row_words, Estimator, Mode, ScaleRange, Score, Status, Thresholds,
+    half_turn_steps, pyramid_words, rho_bins, row_words, Estimator, Mode, ScaleRange, Score,
+    Status, Thresholds,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -212,12 +213,16 @@ fn dispatch(row: &Row, trials: usize, threads: usize) -> RowOutcomes {
         64 => run_row::<64, { row_words(64) }, { rho_bins(64, 64) }, { pyramid_words(64, 64) }>(
             row, trials, threads,
         ),
-        128 => run_row::<128, { row_words(128) }, { rho_bins(128, 128) }, { pyramid_words(128, 128) }>(
-            row, trials, threads,
-        ),
-        256 => run_row::<256, { row_words(256) }, { rho_bins(256, 256) }, { pyramid_words(256, 256) }>(
-            row, trials, threads,
-        ),
+        128 => {
+            run_row::<128, { row_words(128) }, { rho_bins(128, 128) }, { pyramid_words(128, 128) }>(
+                row, trials, threads,
+            )
+        }
+        256 => {
+            run_row::<256, { row_words(256) }, { rho_bins(256, 256) }, { pyramid_words(256, 256) }>(
+                row, trials, threads,
+            )
+        }
         other => panic!("no configuration for {other}²"),
     }
 }

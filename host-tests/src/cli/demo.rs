@@ -222,6 +222,9 @@ fn demo_images(dir: &Path) -> Result<(usize, usize), Fatal> {
         rival_ratio: None,
         direction_margin: None,
         max_shift: None,
+        no_verify: false,
+        alignment_ratio: None,
+        min_overlap: None,
     };
     let mut ok = 0;
     for spec in &specs {
@@ -259,9 +262,10 @@ fn demo_scans(dir: &Path) -> Result<(usize, usize), Fatal> {
     let path: PathBuf = dir.join(SCANS_FILE);
     let bytes = read_input(&path)?;
     let mut engine: Box<dyn Engine> = engine_for(256, 360)?;
+    // The `scans` command's defaults: segments between beams ≤ 0.3 m apart.
     let options = RasterOptions {
         cell: None,
-        connect: None,
+        connect: Some(scans::DEFAULT_CONNECT_M),
         disc: false,
     };
     println!("\nReal laser scan pairs (256², N_θ = 360, improved mode; window = p90 of ranges; see data/README.md):");

@@ -5,8 +5,8 @@
 //! [`engine`] picks one at run time.
 
 use hough_heading::{
-    half_turn_steps, pyramid_words, rho_bins, row_words, Accumulator, Correlation, Estimate, Estimator, Grid,
-    Mode, PeakKind, Raster, ScaleRange, Scan, ScanStats, Signature, Thresholds,
+    half_turn_steps, pyramid_words, rho_bins, row_words, Accumulator, Correlation, Estimate,
+    Estimator, Grid, Mode, PeakKind, Raster, ScaleRange, Scan, ScanStats, Signature, Thresholds,
 };
 
 use crate::reference::Image;

@@ -104,10 +104,24 @@ pub struct EstimatorArgs {
     /// below this (library default 0.10).
     #[arg(long, value_name = "MARGIN")]
     pub direction_margin: Option<f64>,
-    /// Tuning: largest translation the profile test searches, as a fraction
-    /// of the ρ range (library default 0.25).
+    /// Tuning: largest translation the profile test and the verification
+    /// search, as a fraction of the ρ range (library default 0.25).
     #[arg(long, value_name = "FRACTION")]
     pub max_shift: Option<f64>,
+    /// Improved mode without the verification by alignment (the
+    /// correlation and the column-profile test decide alone).
+    #[arg(long)]
+    pub no_verify: bool,
+    /// Tuning (verification): ambiguous unless the best candidate's
+    /// alignment reaches this multiple of the best one ≥ 5° away (library
+    /// default 1.15).
+    #[arg(long, value_name = "RATIO")]
+    pub alignment_ratio: Option<f64>,
+    /// Tuning (verification): `low_overlap` when the chosen pose puts less
+    /// than this share of the second view within one cell of the first
+    /// (library default 0.30).
+    #[arg(long, value_name = "FRACTION")]
+    pub min_overlap: Option<f64>,
 }
 
 impl EstimatorArgs {
@@ -126,6 +140,7 @@ impl EstimatorArgs {
                 &mut t.direction_margin,
             ),
             ("--max-shift", self.max_shift, &mut t.max_shift_fraction),
+            ("--min-overlap", self.min_overlap, &mut t.min_overlap),
         ] {
             if let Some(v) = value {
                 if !(0.0..=1.0).contains(&v) {
@@ -134,7 +149,16 @@ impl EstimatorArgs {
                 *field = Score::from_num(v);
             }
         }
+        if let Some(v) = self.alignment_ratio {
+            if !(1.0..=4.0).contains(&v) {
+                return Err(Fatal::usage(format!(
+                    "--alignment-ratio {v}: must be in [1, 4]"
+                )));
+            }
+            t.alignment_ratio = Score::from_num(v);
+        }
         engine.set_thresholds(t);
+        engine.set_verification(!self.no_verify);
         Ok(engine)
     }
 }
@@ -222,7 +246,7 @@ pub struct ScanGridArgs {
     /// Also draw segments between neighbouring beams at most this far apart
     /// (metres); 0 draws one cell per beam. The default 0.3 m was measured
     /// best on the real scan pairs (README, "Real lidar data").
-    #[arg(long, value_name = "METRES", default_value_t = 0.3)]
+    #[arg(long, value_name = "METRES", default_value_t = scans::DEFAULT_CONNECT_M)]
     pub connect: f32,
     /// Keep only the disc inscribed in the grid.
     #[arg(long)]
@@ -244,13 +268,16 @@ impl ScanGridArgs {
     }
 }
 
-/// `scans PAIRS.jsonl`.
+/// `scans PAIRS.jsonl...`.
 #[derive(Clone, Debug, Args)]
 pub struct ScansArgs {
-    /// Pair file, one JSON object per line (format of ../shared/data/README.md);
-    /// `-` reads stdin.
-    pub pairs: PathBuf,
-    /// Compare with the file's ground truth; print the table to stderr.
+    /// Pair files, one JSON object per line (format of ../shared/data/README.md);
+    /// `-` reads stdin. With several files each output line also names its
+    /// file.
+    #[arg(required = true, num_args = 1..)]
+    pub pairs: Vec<PathBuf>,
+    /// Compare with the files' ground truth; print a table per file to
+    /// stderr, and one over all files when there are several.
     #[arg(long)]
     pub summary: bool,
     /// Also run the other mode, for the summary (stdout keeps `--mode`).
@@ -399,6 +426,10 @@ pub struct ImagesResult {
     pub confidence: f64,
     /// Candidate rotations, strongest first.
     pub candidates: Vec<CandidateJson>,
+    /// Share of B's sampled cells the chosen pose puts within one cell of A
+    /// (verification on).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub overlap: Option<f64>,
     /// Translation x, pixels (null when not estimated).
     pub tx_px: Option<f64>,
     /// Translation y (up), pixels.
@@ -425,8 +456,12 @@ pub struct ImagesResult {
 pub struct CandidateJson {
     /// Rotation, degrees.
     pub alpha_deg: f64,
-    /// Score in [0, 1].
+    /// Correlation × direction share, in [0, 1].
     pub score: f64,
+    /// How well this rotation's best translation aligns B onto A, in [0, 1]
+    /// (verification on; candidates are then sorted by it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub alignment: Option<f64>,
 }
 
 /// An engine holding two images, and each image's offset in the grid
@@ -518,8 +553,14 @@ pub fn images_result(
             .map(|c| CandidateJson {
                 alpha_deg: scans::round(f64::from(c.alpha.to_degrees()), 4),
                 score: scans::round(c.score.to_num::<f64>(), 4),
+                alignment: c.alignment.map(|a| scans::round(a.to_num::<f64>(), 4)),
             })
             .collect(),
+        overlap: e
+            .candidates
+            .iter()
+            .any(|c| c.alignment.is_some())
+            .then(|| scans::round(e.overlap.to_num::<f64>(), 4)),
         tx_px: t.map(|t| scans::round(t.0, 3)),
         ty_px: t.map(|t| scans::round(t.1, 3)),
         scale: e
@@ -557,7 +598,10 @@ pub fn describe_images(r: &ImagesResult, mode: ModeArg) -> String {
     let candidates: Vec<String> = r
         .candidates
         .iter()
-        .map(|c| format!("{:+.2}° ({:.2})", c.alpha_deg, c.score))
+        .map(|c| match c.alignment {
+            Some(a) => format!("{:+.2}° (alignment {a:.2})", c.alpha_deg),
+            None => format!("{:+.2}° ({:.2})", c.alpha_deg, c.score),
+        })
         .collect();
     let translation = match (r.tx_px, r.ty_px) {
         (Some(x), Some(y)) => {
@@ -589,7 +633,7 @@ pub fn describe_images(r: &ImagesResult, mode: ModeArg) -> String {
     };
     format!(
         "rotation of B relative to A: {:+.2}° (counter-clockwise)\n\
-         status:      {} (confidence {:.2})\n\
+         status:      {} (confidence {:.2}{})\n\
          candidates:  {}\n\
          translation: {translation}\n\
          scale:       {scale}\n\
@@ -597,6 +641,8 @@ pub fn describe_images(r: &ImagesResult, mode: ModeArg) -> String {
         r.alpha_deg,
         r.status,
         r.confidence,
+        r.overlap
+            .map_or(String::new(), |o| format!(", overlap {o:.2}")),
         candidates.join(", "),
         r.n_theta,
         size = r.size,
@@ -642,9 +688,72 @@ pub fn progress(len: usize, quiet: bool) -> ProgressBar {
 }
 
 fn scans_command(args: &ScansArgs) -> Result<usize, Fatal> {
-    let options = args.grid.options()?;
     let mut engine = args.estimator.engine(args.grid.size)?;
-    let bytes = read_input(&args.pairs)?;
+    let stdout = io::stdout();
+    let mut out = BufWriter::new(stdout.lock());
+    let mut pooled = Summary::default();
+    let mut failed = 0;
+    let several = args.pairs.len() > 1;
+    for path in &args.pairs {
+        let file = several.then(|| path.display().to_string());
+        let (file_failed, summary) = scans_file(args, path, file, engine.as_mut(), &mut out)?;
+        failed += file_failed;
+        if args.summary {
+            eprintln!(
+                "\n{}: {}\n\n{}",
+                path.display(),
+                setup_line(args),
+                summary.table()
+            );
+            pooled.extend(summary);
+        }
+    }
+    if args.summary && several {
+        eprintln!(
+            "\nall {} files pooled: {}\n\n{}",
+            args.pairs.len(),
+            setup_line(args),
+            pooled.table()
+        );
+    }
+    Ok(failed)
+}
+
+/// The set-up of a scans run, for the summary heading.
+fn setup_line(args: &ScansArgs) -> String {
+    let window = match args.grid.cell {
+        Some(c) => format!("cell {c} m"),
+        None => "window R = p90 of valid ranges, 2–40 m".into(),
+    };
+    format!(
+        "{}², N_θ = {}, {window}{}{}{}",
+        args.grid.size,
+        args.estimator.n_theta,
+        if args.grid.connect > 0.0 {
+            ", segments"
+        } else {
+            ""
+        },
+        if args.grid.disc { ", disc" } else { "" },
+        if args.estimator.no_verify {
+            ", no verification"
+        } else {
+            ""
+        },
+    )
+}
+
+/// Estimates every pair of one file, writing the JSON lines to `out`;
+/// returns the failed lines and the file's summary.
+fn scans_file(
+    args: &ScansArgs,
+    path: &Path,
+    file: Option<String>,
+    engine: &mut dyn Engine,
+    out: &mut impl Write,
+) -> Result<(usize, Summary), Fatal> {
+    let options = args.grid.options()?;
+    let bytes = read_input(path)?;
     let mut lines = lines(&bytes);
     if let Some(limit) = args.limit {
         lines.truncate(limit);
@@ -660,36 +769,35 @@ fn scans_command(args: &ScansArgs) -> Result<usize, Fatal> {
         vec![primary]
     };
     let bar = progress(lines.len(), args.quiet);
-    let stdout = io::stdout();
-    let mut out = BufWriter::new(stdout.lock());
     let mut summary = Summary::default();
     let mut failed = 0;
     let start = Instant::now();
     for (index, line) in lines.iter().enumerate() {
         bar.inc(1);
-        let result = serde_json::from_slice::<PairRecord>(line)
-            .map_err(|e| format!("line {}: malformed pair: {e}", index + 1))
-            .and_then(|pair| {
-                scans::estimate(engine.as_mut(), &pair, &options, &modes)
-                    .map_err(|e| format!("line {}: {e}", index + 1))
-            });
-        let output = match &result {
+        let pair = serde_json::from_slice::<PairRecord>(line)
+            .map_err(|e| format!("line {}: malformed pair: {e}", index + 1));
+        let result = pair.as_ref().map_err(Clone::clone).and_then(|pair| {
+            scans::estimate(engine, pair, &options, &modes)
+                .map_err(|e| format!("line {}: {e}", index + 1))
+        });
+        let mut output = match &result {
             Ok(estimates) => OutputLine::of(index, &estimates[0]),
             Err(message) => {
                 failed += 1;
-                bar.suspend(|| eprintln!("hough-heading: {message}"));
+                bar.suspend(|| eprintln!("hough-heading: {}: {message}", path.display()));
                 OutputLine::error(index, message.clone())
             }
         };
+        output.file.clone_from(&file);
         let text =
             serde_json::to_string(&output).map_err(|e| Fatal::io(format!("JSON output: {e}")))?;
         if writeln!(out, "{text}").is_err() {
             // stdout closed (e.g. piped into `head`): stop quietly.
-            return Ok(failed);
+            return Ok((failed, summary));
         }
         if args.summary {
-            match (&result, serde_json::from_slice::<Truth>(line)) {
-                (Ok(estimates), Ok(truth)) => {
+            match (&result, &pair, serde_json::from_slice::<Truth>(line)) {
+                (Ok(estimates), Ok(pair), Ok(truth)) => {
                     let with_methods: Vec<(Method, &scans::PairEstimate)> = modes
                         .iter()
                         .zip(estimates)
@@ -701,9 +809,9 @@ fn scans_command(args: &ScansArgs) -> Result<usize, Fatal> {
                             (method, e)
                         })
                         .collect();
-                    summary.add(&truth, &with_methods);
+                    summary.add(&truth, pair, &with_methods);
                 }
-                (Ok(_), Err(e)) => {
+                (Ok(_), _, Err(e)) => {
                     bar.suspend(|| {
                         eprintln!(
                             "hough-heading: line {}: no ground truth ({e}); not in the summary",
@@ -712,7 +820,7 @@ fn scans_command(args: &ScansArgs) -> Result<usize, Fatal> {
                     });
                     summary.add_error();
                 }
-                (Err(_), _) => summary.add_error(),
+                _ => summary.add_error(),
             }
         }
     }
@@ -721,31 +829,13 @@ fn scans_command(args: &ScansArgs) -> Result<usize, Fatal> {
     let elapsed = start.elapsed().as_secs_f64();
     if !args.quiet {
         eprintln!(
-            "hough-heading: {} pairs ({failed} failed) in {elapsed:.2} s: {:.0} pairs/s, {} mode(s), \
+            "hough-heading: {}: {} pairs ({failed} failed) in {elapsed:.2} s: {:.0} pairs/s, {} mode(s), \
              one thread",
+            path.display(),
             lines.len(),
             lines.len() as f64 / elapsed.max(1e-9),
             modes.len()
         );
     }
-    if args.summary {
-        let window = match args.grid.cell {
-            Some(c) => format!("cell {c} m"),
-            None => "window R = p90 of valid ranges, 2–40 m".into(),
-        };
-        eprintln!(
-            "\n{}: {}², N_θ = {}, {window}{}{}\n\n{}",
-            args.pairs.display(),
-            args.grid.size,
-            args.estimator.n_theta,
-            if args.grid.connect > 0.0 {
-                ", segments"
-            } else {
-                ""
-            },
-            if args.grid.disc { ", disc" } else { "" },
-            summary.table()
-        );
-    }
-    Ok(failed)
+    Ok((failed, summary))
 }

@@ -27,6 +27,25 @@ pub struct ScanRecord {
 }
 
 impl ScanRecord {
+    /// The valid returns as points `(x, y)` in the robot frame, metres (f64,
+    /// for the summary's independent checks).
+    pub fn points(&self) -> Vec<(f64, f64)> {
+        let [ox, oy, oth] = self.laser_offset.map(f64::from);
+        self.ranges
+            .iter()
+            .enumerate()
+            .filter_map(|(i, r)| {
+                let r = f64::from((*r)?);
+                (r.is_finite() && r > 0.0 && r < f64::from(self.max_range)).then(|| {
+                    let a = f64::from(self.angle_min)
+                        + i as f64 * f64::from(self.angle_increment)
+                        + oth;
+                    (ox + r * a.cos(), oy + r * a.sin())
+                })
+            })
+            .collect()
+    }
+
     /// The ranges with `null` as NaN.
     pub fn ranges(&self) -> Vec<f32> {
         self.ranges.iter().map(|r| r.unwrap_or(f32::NAN)).collect()
@@ -78,6 +97,10 @@ pub struct Check {
     /// ground truth.
     pub overlap_gt: Option<f64>,
 }
+
+/// Default largest gap between neighbouring beams drawn as a segment,
+/// metres (`--connect`; measured best on the real scan pairs, README).
+pub const DEFAULT_CONNECT_M: f32 = 0.3;
 
 /// How scans become grids.
 #[derive(Clone, Copy, Debug)]
@@ -183,6 +206,9 @@ pub fn half_turn_name(h: HalfTurn) -> &'static str {
 /// One output line.
 #[derive(Clone, Debug, Serialize)]
 pub struct OutputLine {
+    /// The pair file, when the command read several.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub file: Option<String>,
     /// 0-based index of the input line.
     pub index: usize,
     /// Estimated heading change dθ, degrees in (−180, 180] (null on error).
@@ -271,6 +297,7 @@ impl OutputLine {
             [round(c * ux - s * uy, 4), round(s * ux + c * uy, 4)]
         });
         Self {
+            file: None,
             index,
             dtheta_deg: Some(round(p.dtheta_deg, 4)),
             status: status_name(e.status),
@@ -313,6 +340,7 @@ impl OutputLine {
     /// The line for a failed input line.
     pub fn error(index: usize, message: String) -> Self {
         Self {
+            file: None,
             index,
             dtheta_deg: None,
             status: "error",

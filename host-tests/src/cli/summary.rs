@@ -11,9 +11,14 @@
 //! - *t median / p90*: `|d_est − d_gt|` in metres over the pairs whose
 //!   rotation is within 2° and whose translation is observable; for the zero
 //!   estimate, `|d_gt|` over all pairs.
-//! - *t > 0.3 m*: among the pairs of *t median*, those more than 0.3 m
-//!   off, for translations fitted to 3 or more columns (cross-checked) and
-//!   to 2 (`Translation::columns`).
+//! - *median ° ≤ 2°*: median error of the pairs within 2°.
+//! - *of which fit better*: among the unflagged pairs more than 5° off, how
+//!   many the estimate aligns better than the ground truth does: the share
+//!   of scan-2 points within 0.1 m of a scan-1 point is higher under the
+//!   estimated pose (an independent f64 check on the raw points; such pairs
+//!   are either genuinely ambiguous or wrong in the ground truth).
+//! - *t > 0.3 m*: among the pairs of *t median*, the share more than 0.3 m
+//!   off.
 //! - *t unobs.*: among the pairs whose rotation is within 2°, the share whose
 //!   translation is unobservable along one direction (corridors: the estimate
 //!   has no component along it, so its error there is the motion along the
@@ -23,7 +28,7 @@
 
 use std::fmt::Write as _;
 
-use super::scans::{wrap_deg, PairEstimate, Truth};
+use super::scans::{wrap_deg, PairEstimate, PairRecord, Truth};
 
 /// A method compared in the summary.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -52,9 +57,10 @@ struct Outcome {
     error_deg: f64,
     flagged: bool,
     translation_error: Option<f64>,
-    /// Columns the translation fit kept (0 without a translation).
-    columns: u8,
     unobservable: bool,
+    /// Unflagged, more than 5° off, and aligning the raw scans better than
+    /// the ground truth.
+    fits_better: bool,
 }
 
 /// One pair's truth and outcomes.
@@ -74,7 +80,7 @@ pub struct Summary {
 
 impl Summary {
     /// Adds one pair: `estimates` pairs each method with its estimate.
-    pub fn add(&mut self, truth: &Truth, estimates: &[(Method, &PairEstimate)]) {
+    pub fn add(&mut self, truth: &Truth, pair: &PairRecord, estimates: &[(Method, &PairEstimate)]) {
         let dtheta_deg = wrap_deg(truth.dtheta.to_degrees());
         let mut outcomes: Vec<(Method, Outcome)> = estimates
             .iter()
@@ -89,15 +95,17 @@ impl Summary {
                     .filter(|_| error_deg <= 2.0 && !unobservable)
                     .map(|(x, y)| (x - truth.dx).hypot(y - truth.dy));
                 let flagged = p.estimate.status != hough_heading::Status::Confident;
-                let columns = p.estimate.translation.map_or(0, |t| t.columns);
+                let fits_better = !flagged
+                    && error_deg > 5.0
+                    && fits_better_than_truth(pair, truth, p.dtheta_deg, p.translation);
                 (
                     *m,
                     Outcome {
                         error_deg,
                         flagged,
                         translation_error,
-                        columns,
                         unobservable,
+                        fits_better,
                     },
                 )
             })
@@ -108,8 +116,8 @@ impl Summary {
                 error_deg: dtheta_deg.abs(),
                 flagged: false,
                 translation_error: Some(truth.dx.hypot(truth.dy)),
-                columns: 0,
                 unobservable: false,
+                fits_better: false,
             },
         ));
         self.rows.push(Row {
@@ -117,6 +125,12 @@ impl Summary {
             dtheta_deg,
             outcomes,
         });
+    }
+
+    /// Adds every pair of `other` (pooling files).
+    pub fn extend(&mut self, other: Summary) {
+        self.rows.extend(other.rows);
+        self.errors += other.errors;
     }
 
     /// Counts a line that failed.
@@ -128,8 +142,8 @@ impl Summary {
     pub fn table(&self) -> String {
         let mut out = String::new();
         out.push_str(
-            "| subset | method | pairs | median ° | p90 ° | ≤ 2° | flips | flagged | fail unflagged (> 5°) | t median m | t p90 m | t > 0.3 m: 3+ columns / 2 | t unobs. |\n\
-             |---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+            "| subset | method | pairs | median ° | p90 ° | ≤ 2° | median ° ≤ 2° | flips | flagged | fail unflagged (> 5°) | of which fit better | t median m | t p90 m | t > 0.3 m | t unobs. |\n\
+             |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         );
         type Filter = fn(&Row) -> bool;
         let subsets: [(&str, Filter); 4] = [
@@ -167,7 +181,7 @@ fn line(subset: &str, method: Method, outcomes: &[Outcome]) -> String {
     let n = outcomes.len();
     if n == 0 {
         return format!(
-            "| {subset} | {} | 0 | – | – | – | – | – | – | – | – | – | – |\n",
+            "| {subset} | {} | 0 | – | – | – | – | – | – | – | – | – | – | – | – |\n",
             method.name()
         );
     }
@@ -175,8 +189,14 @@ fn line(subset: &str, method: Method, outcomes: &[Outcome]) -> String {
     let share = |count: usize| format!("{:.1} %", 100.0 * count as f64 / n as f64);
     let within = outcomes.iter().filter(|o| o.error_deg <= 2.0).count();
     let flips = outcomes.iter().filter(|o| o.error_deg >= 175.0).count();
-    let (flagged, unflagged_fail) = if method == Method::Zero {
-        ("–".to_string(), "–".to_string())
+    let mut close: Vec<f64> = errors.iter().copied().filter(|&e| e <= 2.0).collect();
+    let close_median = if close.is_empty() {
+        "–".to_string()
+    } else {
+        format!("{:.3}", quantile(&mut close, 0.5))
+    };
+    let (flagged, unflagged_fail, fit_better) = if method == Method::Zero {
+        ("–".to_string(), "–".to_string(), "–".to_string())
     } else {
         let flagged = outcomes.iter().filter(|o| o.flagged).count();
         let unflagged = n - flagged;
@@ -192,7 +212,8 @@ fn line(subset: &str, method: Method, outcomes: &[Outcome]) -> String {
                 100.0 * fails as f64 / unflagged as f64
             )
         };
-        (share(flagged), fail)
+        let better = outcomes.iter().filter(|o| o.fits_better).count();
+        (share(flagged), fail, format!("{better}/{fails}"))
     };
     let mut t: Vec<f64> = outcomes
         .iter()
@@ -213,36 +234,57 @@ fn line(subset: &str, method: Method, outcomes: &[Outcome]) -> String {
             format!("{:.3}", quantile(&mut t, 0.9)),
         )
     };
-    let off = |checked: bool| {
-        let fitted: Vec<f64> = outcomes
-            .iter()
-            .filter(|o| (o.columns >= 3) == checked)
-            .filter_map(|o| o.translation_error)
-            .collect();
-        let far = fitted.iter().filter(|&&e| e > 0.3).count();
-        if fitted.is_empty() {
-            "–".to_string()
-        } else {
-            format!(
-                "{:.1} % ({far}/{})",
-                100.0 * far as f64 / fitted.len() as f64,
-                fitted.len()
-            )
-        }
-    };
     let t_off = if method == Method::Zero || t.is_empty() {
         "–".to_string()
     } else {
-        format!("{} / {}", off(true), off(false))
+        let far = t.iter().filter(|&&e| e > 0.3).count();
+        format!(
+            "{:.1} % ({far}/{})",
+            100.0 * far as f64 / t.len() as f64,
+            t.len()
+        )
     };
     format!(
-        "| {subset} | {} | {n} | {:.2} | {:.2} | {} | {} | {flagged} | {unflagged_fail} | {t_median} | {t_p90} | {t_off} | {unobservable} |\n",
+        "| {subset} | {} | {n} | {:.2} | {:.2} | {} | {close_median} | {} | {flagged} | {unflagged_fail} | {fit_better} | {t_median} | {t_p90} | {t_off} | {unobservable} |\n",
         method.name(),
         quantile(&mut errors, 0.5),
         quantile(&mut errors, 0.9),
         share(within),
         share(flips),
     )
+}
+
+/// Share of scan-2 points within 0.1 m of a scan-1 point when mapped by the
+/// pose `p₁ = R(dθ)·p₂ + d` (brute force, f64).
+fn aligned_share(pair: &PairRecord, dtheta_rad: f64, d: (f64, f64)) -> f64 {
+    let (p1, p2) = (pair.scan1.points(), pair.scan2.points());
+    if p2.is_empty() {
+        return 0.0;
+    }
+    let (s, c) = dtheta_rad.sin_cos();
+    let near = p2
+        .iter()
+        .filter(|&&(x, y)| {
+            let (qx, qy) = (c * x - s * y + d.0, s * x + c * y + d.1);
+            p1.iter()
+                .any(|&(ax, ay)| (ax - qx).powi(2) + (ay - qy).powi(2) < 0.01)
+        })
+        .count();
+    near as f64 / p2.len() as f64
+}
+
+/// Whether the estimated pose aligns the raw scans better than the truth.
+fn fits_better_than_truth(
+    pair: &PairRecord,
+    truth: &Truth,
+    dtheta_deg: f64,
+    translation: Option<(f64, f64)>,
+) -> bool {
+    let Some(d) = translation else {
+        return false;
+    };
+    aligned_share(pair, dtheta_deg.to_radians(), d)
+        > aligned_share(pair, truth.dtheta, (truth.dx, truth.dy))
 }
 
 /// The `q`-quantile (nearest rank) of `values` (sorted in place).
