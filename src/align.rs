@@ -23,8 +23,30 @@ use crate::trig::TrigTable;
 use crate::Grid;
 
 /// Most occupied cells of image 2 scored per pose (taken evenly in raster
-/// order when there are more).
+/// order when there are more); a `W × H` grid scores
+/// [`align_points`]`(W, H)` of them.
 pub const ALIGN_POINTS: usize = 128;
+
+/// Cells of image 2 the search scores on a `w × h` grid: `max(w, h) / 2`
+/// within 32 ..= [`ALIGN_POINTS`] (64 at 128², 128 at 256²): about one per
+/// two cells of a wall across the grid.
+pub const fn align_points(width: usize, height: usize) -> usize {
+    let side = if width > height { width } else { height };
+    let half = side / 2;
+    if half < 32 {
+        32
+    } else if half > ALIGN_POINTS {
+        ALIGN_POINTS
+    } else {
+        half
+    }
+}
+
+/// Cells of image 2 the ICP matches on a `w × h` grid: four times
+/// [`align_points`] (256 at 128², 512 at 256²).
+pub const fn icp_points(width: usize, height: usize) -> usize {
+    4 * align_points(width, height)
+}
 
 /// Pyramid levels above the grid: the smallest `L ≥ 1` with
 /// `4 · 2ᴸ ≥ max(w, h)`, so the top level is at most 4 × 4 cells.
@@ -48,6 +70,24 @@ pub const fn pyramid_words(width: usize, height: usize) -> usize {
         k += 1;
     }
     total
+}
+
+/// Most pyramid levels (W, H ≤ 2048: `4 · 2⁹ ≥ 2048`).
+const MAX_LEVELS: usize = 9;
+
+/// Offset, height and row words of each level of a `w × h` pyramid.
+const fn layout(width: usize, height: usize) -> [(usize, usize, usize); MAX_LEVELS + 1] {
+    let mut out = [(0, 0, 0); MAX_LEVELS + 1];
+    let levels = pyramid_levels(width, height);
+    let mut offset = 0;
+    let mut k = 1;
+    while k <= levels && k <= MAX_LEVELS {
+        let (h, rw) = (level_height(height, k), level_row_words(width, k));
+        out[k] = (offset, h, rw);
+        offset += h * rw;
+        k += 1;
+    }
+    out
 }
 
 const fn level_width(width: usize, k: usize) -> usize {
@@ -76,12 +116,13 @@ impl<const W: usize, const H: usize, const PW: usize> Pyramid<W, H, PW> {
     }
 
     const LEVELS: usize = pyramid_levels(W, H);
+    /// Per level `k` (index `k`, 0 unused): word offset, height, row words;
+    /// evaluated at compile time (no division at run time).
+    const LAYOUT: [(usize, usize, usize); MAX_LEVELS + 1] = layout(W, H);
 
     /// Word offset of level `k ≥ 1`.
     fn offset(k: usize) -> usize {
-        (1..k)
-            .map(|j| level_height(H, j) * level_row_words(W, j))
-            .sum()
+        Self::LAYOUT.get(k).map_or(PW, |l| l.0)
     }
 
     /// Rebuilds every level from `grid` (`≈ W·H/16` word operations).
@@ -114,11 +155,13 @@ impl<const W: usize, const H: usize, const PW: usize> Pyramid<W, H, PW> {
 
     /// Row `r` of level `k ≥ 1` (empty outside).
     fn row(&self, k: usize, r: i32) -> &[u32] {
-        if r < 0 || r as usize >= level_height(H, k) {
+        let Some(&(offset, height, rw)) = Self::LAYOUT.get(k) else {
+            return &[];
+        };
+        if r < 0 || r as usize >= height {
             return &[];
         }
-        let rw = level_row_words(W, k);
-        let start = Self::offset(k) + r as usize * rw;
+        let start = offset + r as usize * rw;
         self.words.get(start..start + rw).unwrap_or(&[])
     }
 }
@@ -156,16 +199,12 @@ const fn halve(w: u32) -> u32 {
 
 /// Bits `lo..lo + n` of a row (`n ≤ 31`), bit 0 = column `lo`; columns
 /// outside the row read 0.
+#[inline]
 fn bits(row: &[u32], lo: i32, n: u32) -> u32 {
-    let word = |i: i32| -> u32 {
-        if i < 0 {
-            0
-        } else {
-            row.get(i as usize).copied().unwrap_or(0)
-        }
-    };
-    let w = lo.div_euclid(32);
-    let b = lo.rem_euclid(32) as u32;
+    // Arithmetic shift and mask: floor division and remainder by 32.
+    let w = lo >> 5;
+    let b = (lo & 31) as u32;
+    let word = |i: i32| -> u32 { usize::try_from(i).ok().and_then(|i| row.get(i)).copied().unwrap_or(0) };
     let low = word(w) >> b;
     let high = if b == 0 { 0 } else { word(w + 1) << (32 - b) };
     (low | high) & ((1u32 << n) - 1)
@@ -213,7 +252,7 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
         inv_scale_q16: u32,
     ) -> Self {
         let (mut n, mut sx, mut sy) = (0i64, 0i64, 0i64);
-        for (col, row) in sampled_cells(view, ALIGN_POINTS) {
+        for (col, row) in sampled_cells(view, align_points(W, H)) {
             let (x, y) = centred_q1::<W, H>(col, row);
             n += 1;
             sx += i64::from(x);
@@ -248,7 +287,7 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
         (from.shift.0 + dc as i32, from.shift.1 + dr as i32)
     }
 
-    /// Number of points scored (`min(occupied, ALIGN_POINTS)`).
+    /// Number of points scored (`min(occupied, align_points(W, H))`).
     pub(crate) fn points(&self) -> u32 {
         self.count as u32
     }
@@ -258,7 +297,7 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
     pub(crate) fn rotate<const N: usize>(&mut self, alpha: Angle, u_q8: (i64, i64)) {
         let (cos, sin) = sin_cos_q15::<N>(alpha);
         let mut count = 0;
-        for (col, row) in sampled_cells(self.view, ALIGN_POINTS) {
+        for (col, row) in sampled_cells(self.view, align_points(W, H)) {
             let (x, y) = scaled(
                 rotate_inverse_q16((cos, sin), centred_q1::<W, H>(col, row)),
                 self.inv_scale_q16,
@@ -404,7 +443,7 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
         let mut floor = floor;
         let last = (origin.0 + span - 1, origin.1 + span - 1);
         // Highest bound first.
-        tops.sort_unstable_by(|a, b| b.0.cmp(&a.0));
+        crate::estimate::sort_descending(&mut tops, |t| t.0);
         let mut stack: heapless::Vec<(usize, i32, i32, u32), STACK> = heapless::Vec::new();
         for &(b, c0, r0) in &tops {
             if b <= floor {
@@ -435,7 +474,7 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
                     *child = (cb, c, r);
                 }
                 // Push the lowest first so the highest is explored first.
-                children.sort_unstable_by(|a, b| a.0.cmp(&b.0));
+                children.sort_unstable_by_key(|c| c.0);
                 for (cb, c, r) in children {
                     if cb > floor {
                         let _ = stack.push((k - 1, c, r, cb));
@@ -550,7 +589,7 @@ pub(crate) fn sin_cos_q15<const N: usize>(alpha: Angle) -> (i32, i32) {
     (cos as i32, sin as i32)
 }
 
-/// ICP of up to [`ICP_POINTS`] view cells onto the reference's occupied
+/// ICP of up to [`icp_points`] view cells onto the reference's occupied
 /// cells, starting from `start`. Each iteration pairs every view cell with
 /// the nearest occupied reference cell within one cell, then solves the
 /// small rigid motion point to line (the line through the reference cells
@@ -563,7 +602,9 @@ pub(crate) fn sin_cos_q15<const N: usize>(alpha: Angle) -> (i32, i32) {
 /// cells, y up).
 ///
 /// Fixed point: positions in Q8 cells (|·| < 2²⁰ for W, H ≤ 2048 and
-/// s ≥ ½), sums in `i64` (< 2⁵¹ with ≤ 512 points).
+/// s ≥ ½), sums in `i64` (< 2⁵¹ with ≤ 512 points). More points than the
+/// search scores: the refinement averages their residuals (synthetic
+/// polygons 128², point to point, 128 → all cells: median 0.33° → 0.22°).
 pub(crate) fn refine<const W: usize, const H: usize, const RW: usize, const N: usize>(
     reference: &Grid<W, H, RW>,
     view: &Grid<W, H, RW>,
@@ -580,7 +621,7 @@ pub(crate) fn refine<const W: usize, const H: usize, const RW: usize, const N: u
         let (cos, sin) = sin_cos_q15::<N>(alpha);
         let mut sums = PairSums::default();
         let mut lines = LineSums::default();
-        for (col, row) in sampled_cells(view, ICP_POINTS) {
+        for (col, row) in sampled_cells(view, icp_points(W, H)) {
             let (x, y) = scaled(
                 rotate_inverse_q16((cos, sin), centred_q1::<W, H>(col, row)),
                 i64::from(inv_scale_q16),
@@ -616,11 +657,6 @@ pub(crate) fn refine<const W: usize, const H: usize, const RW: usize, const N: u
 /// ICP iterations at most.
 const ICP_ITERATIONS: usize = 15;
 
-/// Most view cells the ICP matches per iteration (more than the search's
-/// [`ALIGN_POINTS`]: the refinement averages their residuals; measured on
-/// synthetic polygons 128², point to point, 128 → all cells: median 0.33° →
-/// 0.22°).
-pub const ICP_POINTS: usize = 512;
 
 /// Largest rotation one ICP step may make, Q16 radians (≈ 2.9°).
 const MAX_ICP_STEP_Q16: i64 = 3277;
@@ -637,17 +673,21 @@ fn small_rotation_q16(delta_q16: i64) -> (i64, i64) {
     ((1 << 16) - half_sq, delta_q16)
 }
 
+/// A match of the ICP: the reference cell's centre (centred, Q8) and the
+/// cell `(col, row)`.
+type Match = ((i64, i64), (i64, i64));
+
 /// Centre of the occupied reference cell nearest `q` (centred, Q8) among the
 /// 3 × 3 cells around it, in centred Q8 coordinates.
 fn nearest_occupied<const W: usize, const H: usize, const RW: usize>(
     grid: &Grid<W, H, RW>,
     (x, y): (i64, i64),
-) -> Option<((i64, i64), (i64, i64))> {
+) -> Option<Match> {
     // Cell coordinates in Q8: col = x + (W − 1)/2, row = (H − 1)/2 − y.
     let col_q8 = x + ((W as i64 - 1) << 7);
     let row_q8 = ((H as i64 - 1) << 7) - y;
     let (c, r) = ((col_q8 + 128) >> 8, (row_q8 + 128) >> 8);
-    let mut best: Option<(i64, ((i64, i64), (i64, i64)))> = None;
+    let mut best: Option<(i64, Match)> = None;
     for dr in -1..=1 {
         for dc in -1..=1 {
             let (cc, rr) = (c + dc, r + dr);

@@ -117,6 +117,11 @@ pub struct Candidate {
     /// candidates are then sorted by it. `None` without verification
     /// (candidates sorted by `score`).
     pub alignment: Option<Score>,
+    /// With verification: the translation `t` (pixels, `p₂ = s·R(α)·p₁ + t`)
+    /// that aligns this candidate best: whole cells for the others, refined
+    /// for the chosen one (where [`Estimate::translation`] also holds it).
+    /// `None` without verification.
+    pub translation: Option<(I16F16, I16F16)>,
 }
 
 /// Most candidates an [`Estimate`] carries.
@@ -407,7 +412,13 @@ impl<
                 HalfTurn::Direct => (alpha_best, t),
                 HalfTurn::Flipped => (alpha_best + Angle::HALF_TURN, t),
             });
-            return self.verified(reference, grid, &correlation, best_score, test, prior, hint);
+            let found = Unverified {
+                correlation: &correlation,
+                best_score,
+                test,
+                hint,
+            };
+            return self.verified(reference, grid, found, prior);
         }
 
         let axis_ambiguous = rival_score >= best_score.saturating_mul(self.thresholds.rival_ratio);
@@ -509,16 +520,23 @@ impl<
     /// the status says whether a rival at least 5° away comes close
     /// ([`Thresholds::alignment_ratio`]) or the pose explains too little of
     /// the view ([`Thresholds::min_overlap`]).
+    ///
+    /// Not inlined: its frame (about 2 KiB) stays off the stack of estimates
+    /// without verification.
+    #[inline(never)]
     fn verified(
         &mut self,
         reference: &Reference<W, H, RW, HALF, RHO>,
         grid: &Grid<W, H, RW>,
-        correlation: &Correlation,
-        best_score: Score,
-        test: HalfTurnTest,
+        found: Unverified<'_>,
         prior: Option<Prior>,
-        hint: Option<(Angle, Translation)>,
     ) -> Estimate {
+        let Unverified {
+            correlation,
+            best_score,
+            test,
+            hint,
+        } = found;
         self.pyramid.build(reference.grid());
         let max_shift = self.max_shift() as i32;
         // The scale the profile test found (1 without a scale search) holds
@@ -579,7 +597,7 @@ impl<
             if seeds.is_empty() {
                 return Estimate::no_structure();
             }
-            seeds.sort_unstable_by(|a, b| b.0.score.cmp(&a.0.score));
+            sort_descending(&mut seeds, |s| s.0.score);
             // 2. Local angle search around the strongest seeds: ±10° in
             //    strides of ~2°, then halving strides down to one θ step.
             let strongest = seeds.first().map_or(0, |s| s.0.score);
@@ -589,7 +607,7 @@ impl<
                 }
                 *seed = angle_search::<W, H, RW, N, PW>(&mut aligner, seed);
             }
-            seeds.sort_unstable_by(|a, b| b.0.score.cmp(&a.0.score));
+            sort_descending(&mut seeds, |s| s.0.score);
             let Some(&(winner, _)) = seeds.first() else {
                 return Estimate::no_structure();
             };
@@ -651,10 +669,20 @@ impl<
                 .iter()
                 .any(|c| c.alpha.distance(candidate_alpha) < separation);
             if !duplicate && !candidates.is_full() {
+                let u = if placement == &winner {
+                    u_q8
+                } else {
+                    (
+                        i64::from(placement.shift.0) << 8,
+                        -(i64::from(placement.shift.1) << 8),
+                    )
+                };
+                let t = verified_translation::<N>(candidate_alpha, u, scale_q16, None);
                 let _ = candidates.push(Candidate {
                     alpha: candidate_alpha,
                     score: *correlation,
                     alignment: Some(alignment(placement.score)),
+                    translation: Some((t.x, t.y)),
                 });
             }
         }
@@ -670,8 +698,17 @@ impl<
         }
         let translation = if chosen == alpha {
             // The observability comes from the column profiles: a corridor
-            // leaves the shift along its walls free.
-            let (_, _, fit) = self.profile_test(reference, grid, alpha);
+            // leaves the shift along its walls free. The profile test of the
+            // best peak serves when the winner is that peak or its half turn
+            // (the same column normals); otherwise it runs again.
+            let near_hint = hint.filter(|(h, _)| {
+                let apart = alpha.distance(*h);
+                apart < separation || apart > Angle::HALF_TURN - separation
+            });
+            let fit = match near_hint {
+                Some((_, t)) => Some(t),
+                None => self.profile_test(reference, grid, alpha).2,
+            };
             Some(verified_translation::<N>(
                 alpha,
                 u_q8,
@@ -685,7 +722,9 @@ impl<
         let separation_share = if winner.score == 0 {
             Score::ZERO
         } else {
-            (best - Score::from_num(rival_score)) / best
+            (best - Score::from_num(rival_score))
+                .checked_div(best)
+                .unwrap_or(Score::ZERO)
         };
         Estimate {
             alpha: chosen,
@@ -970,6 +1009,7 @@ fn push_pair(
             alpha: first,
             score: correlation * first_share,
             alignment: None,
+            translation: None,
         },
     );
     insert_sorted(
@@ -978,6 +1018,7 @@ fn push_pair(
             alpha: second,
             score: correlation * second_share,
             alignment: None,
+            translation: None,
         },
     );
 }
@@ -1025,35 +1066,16 @@ fn confidence(best: Score, rival: Score, margin: Score, t: &Thresholds) -> Score
     best.clamp(Score::ZERO, one) * axis * direction
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn margin_by_hand() {
-        let t = HalfTurnTest {
-            chosen: HalfTurn::Direct,
-            direct: Score::from_num(0.8),
-            flipped: Score::from_num(0.6),
-        };
-        assert!((t.margin().to_num::<f32>() - 0.25).abs() < 1e-3);
-        let p = HalfTurnTest {
-            chosen: HalfTurn::Flipped,
-            direct: Score::from_num(-0.3),
-            flipped: Score::from_num(0.3),
-        };
-        assert!((p.margin().to_num::<f32>() - 0.3).abs() < 1e-3);
-    }
-
-    #[test]
-    fn mirror_maps_b_to_rho_minus_b() {
-        let mut c = [0u16; 8];
-        c[1] = 1;
-        c[3] = 3;
-        c[4] = 4;
-        mirror(&mut c);
-        assert_eq!(c, [0, 0, 0, 0, 4, 3, 0, 1]);
-    }
+/// What the correlation and the profile test found, handed to the
+/// verification.
+struct Unverified<'c> {
+    correlation: &'c Correlation,
+    /// Pearson correlation of the best peak.
+    best_score: Score,
+    /// The profile test of the best peak.
+    test: HalfTurnTest,
+    /// The half of the best peak the profile test chose, and its pose.
+    hint: Option<(Angle, Translation)>,
 }
 
 /// Correlation peaks whose two halves the verification scores.
@@ -1208,4 +1230,47 @@ fn verified_confidence(overlap: Score, lead: Score, t: &Thresholds) -> Score {
         Score::ZERO
     };
     overlap.clamp(Score::ZERO, one) * ramp(lead, needed) * ramp(overlap, t.min_overlap)
+}
+
+/// Sorts `items` by `key`, largest first (insertion sort: a few items, and
+/// no panic path, unlike `sort_unstable_by`'s order-violation check).
+pub(crate) fn sort_descending<T: Copy>(items: &mut [T], key: impl Fn(&T) -> u32) {
+    for i in 1..items.len() {
+        let mut j = i;
+        while j > 0 && key(&items[j - 1]) < key(&items[j]) {
+            items.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn margin_by_hand() {
+        let t = HalfTurnTest {
+            chosen: HalfTurn::Direct,
+            direct: Score::from_num(0.8),
+            flipped: Score::from_num(0.6),
+        };
+        assert!((t.margin().to_num::<f32>() - 0.25).abs() < 1e-3);
+        let p = HalfTurnTest {
+            chosen: HalfTurn::Flipped,
+            direct: Score::from_num(-0.3),
+            flipped: Score::from_num(0.3),
+        };
+        assert!((p.margin().to_num::<f32>() - 0.3).abs() < 1e-3);
+    }
+
+    #[test]
+    fn mirror_maps_b_to_rho_minus_b() {
+        let mut c = [0u16; 8];
+        c[1] = 1;
+        c[3] = 3;
+        c[4] = 4;
+        mirror(&mut c);
+        assert_eq!(c, [0, 0, 0, 0, 4, 3, 0, 1]);
+    }
 }

@@ -22,7 +22,7 @@ pub use accumulator::{
     max_votes_per_bin, vote_column, vote_column_pair, vote_column_split, Accumulator, Column,
     MAX_INV_SCALE_Q16, SPLIT_VOTE_BITS, UNIT_SCALE_Q16,
 };
-pub use align::{pyramid_levels, pyramid_words, ALIGN_POINTS, ICP_POINTS};
+pub use align::{align_points, icp_points, pyramid_levels, pyramid_words, ALIGN_POINTS};
 pub use angle::Angle;
 pub use config::{half_turn_steps, recommended_n_theta, rho_bins, row_words};
 pub use correlation::{Correlation, Peak, MAX_PEAKS};
