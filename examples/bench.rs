@@ -14,13 +14,21 @@
 //! shifted. The program measures, between the marker functions
 //! [`hh_bench_start`] and [`hh_bench_stop`] (which the `qemu-icount` plugin
 //! watches): nothing (the markers' own overhead), preparing the reference, one
-//! estimate against it, and the bare vote loop over θ ∈ [0, π)
-//! (`vote_column_pair`, as the estimator runs it). Before each it
-//! logs `bench <what> sp=<stack pointer> votes=<votes>`; the plugin reports the
+//! estimate against it (`Mode::Improved` as built: with the verification by
+//! alignment), the bare vote loop over θ ∈ [0, π) (`vote_column_pair`, as the
+//! estimator runs it), the same estimate with `with_verification(false)`, and
+//! with the scale search (verified as well). Before each it logs
+//! `bench <what> sp=<stack pointer> votes=<votes>`; the plugin reports the
 //! instruction count and the lowest stack address written. It exits with 0 when
-//! the estimate is right, [`support::EXIT_WRONG_ESTIMATE`] when not, and
+//! every estimate is right (and the verified ones were verified, the
+//! unverified one not), [`support::EXIT_WRONG_ESTIMATE`] when not, and
 //! [`EXIT_DOES_NOT_FIT`] when the estimator's state cannot fit the RAM below
 //! the stack pointer.
+//!
+//! The `config` line gives the state: `size_of` the estimator and the
+//! reference, and of the parts that only the verification needs: the
+//! estimator's pyramid (`4 · pyramid_words(W, H)` bytes) and the grid the
+//! reference keeps (`size_of` a grid).
 //!
 //! With `HH_BENCH_BASELINE=1` the same program is built without calling the
 //! library and without the grids (every value it would log is a `black_box`),
@@ -37,8 +45,8 @@ mod firmware {
     use core::mem::size_of;
 
     use hough_heading::{
-        estimator, grid, half_turn_steps, reference, rho_bins, row_words, vote_column,
-        vote_column_pair, Angle, Column, Grid, Mode, ScaleRange,
+        estimator, grid, half_turn_steps, pyramid_words, reference, rho_bins, row_words,
+        vote_column, vote_column_pair, Angle, Column, Estimate, Grid, Mode, ScaleRange,
     };
 
     use crate::support::room::{room_words, Pose};
@@ -67,9 +75,10 @@ mod firmware {
 
     type Estimator = estimator!(SIDE, SIDE, N_THETA);
     type Reference = reference!(SIDE, SIDE, N_THETA);
+    type BenchGrid = grid!(SIDE, SIDE);
 
-    static FIRST: grid!(SIDE, SIDE) = Grid::from_words(room_words::<SIDE, SIDE, RW>(Pose::ORIGIN));
-    static SECOND: grid!(SIDE, SIDE) = Grid::from_words(room_words::<SIDE, SIDE, RW>(Pose {
+    static FIRST: BenchGrid = Grid::from_words(room_words::<SIDE, SIDE, RW>(Pose::ORIGIN));
+    static SECOND: BenchGrid = Grid::from_words(room_words::<SIDE, SIDE, RW>(Pose {
         degrees: TURN_DEGREES as f64,
         dx: 3.0,
         dy: -2.0,
@@ -123,6 +132,19 @@ mod firmware {
         );
     }
 
+    /// Whether `estimate` went through the verification by alignment: a
+    /// positive overlap and an alignment on every candidate (none without).
+    fn verified(estimate: &Estimate) -> bool {
+        estimate.overlap > 0
+            && !estimate.candidates.is_empty()
+            && estimate.candidates.iter().all(|c| c.alignment.is_some())
+    }
+
+    /// Whether `estimate` is an unverified one: no overlap, no alignments.
+    fn unverified(estimate: &Estimate) -> bool {
+        estimate.overlap == 0 && estimate.candidates.iter().all(|c| c.alignment.is_none())
+    }
+
     /// The estimate and what the run saw of it.
     struct Outcome {
         alpha: Angle,
@@ -143,6 +165,8 @@ mod firmware {
         announce("reference", first_votes);
         let reference = measure(|| estimator.reference(&FIRST));
 
+        // As built, the improved mode verifies by alignment.
+        let verifies = estimator.verification();
         announce("estimate", second_votes);
         let Ok(estimate) = support::timed(&mut pin, || {
             measure(|| estimator.estimate(&reference, &SECOND))
@@ -163,19 +187,51 @@ mod firmware {
         });
         black_box(&columns);
 
-        // The same estimate with the scale search (the scenes have s = 1):
-        // its extra cost is the scale search alone.
+        // The same estimate without the verification: the difference is
+        // the verification's cost.
+        // (Assigned back to the same binding: a new one would be a second
+        // copy of the estimator in this frame, which the M0 cannot spare.)
+        estimator = estimator.with_verification(false);
+        announce("unverified", second_votes);
+        let plain = measure(|| estimator.estimate(&reference, &SECOND));
+        let plain_right =
+            support::error_millidegrees(plain.alpha, support::angle_of_degrees(TURN_DEGREES)).abs()
+                <= TOLERANCE_MDEG;
+
+        // The same estimate with the scale search (the scenes have s = 1),
+        // as configured by a user (verification on): its extra cost over the
+        // first estimate is the scale search's.
+        estimator = estimator.with_verification(true);
         estimator.set_scale_search(Some(ScaleRange::DEFAULT));
         announce("scaled", second_votes);
         let scaled = measure(|| estimator.estimate(&reference, &SECOND));
-        let scale_right = scaled.alpha == estimate.alpha
-            && scaled
-                .translation
-                .is_some_and(|t| (t.scale.to_bits() - (1 << 16)).abs() <= 1 << 11);
+        let scale_right =
+            support::error_millidegrees(scaled.alpha, support::angle_of_degrees(TURN_DEGREES))
+                .abs()
+                <= TOLERANCE_MDEG
+                && scaled
+                    .translation
+                    .is_some_and(|t| (t.scale.to_bits() - (1 << 16)).abs() <= 1 << 11);
 
+        let consistent = verifies
+            && verified(&estimate)
+            && unverified(&plain)
+            && plain_right
+            && verified(&scaled)
+            && scale_right;
+        defmt::println!(
+            "checks verified={=bool} unverified={=bool} plain_alpha_mdeg={=i32} scale={=bool} scaled_verified={=bool} overlap_permille={=i32}",
+            verifies && verified(&estimate),
+            unverified(&plain),
+            support::millidegrees(plain.alpha),
+            scale_right,
+            verified(&scaled),
+            ((i64::from(estimate.overlap.to_bits()) * 1000) >> 16) as i32
+        );
         Outcome {
-            // A wrong scale makes the run fail like a wrong angle.
-            alpha: if scale_right {
+            // A wrong scale, an unverified estimate or a wrong one without
+            // the verification makes the run fail like a wrong angle.
+            alpha: if consistent {
                 estimate.alpha
             } else {
                 estimate.alpha + Angle::HALF_TURN
@@ -188,7 +244,14 @@ mod firmware {
     /// The same runs and logs without the library and the grids.
     fn run_baseline() -> Outcome {
         let mut pin = ScopePin::default();
-        for what in ["overhead", "reference", "estimate", "votes", "scaled"] {
+        for what in [
+            "overhead",
+            "reference",
+            "estimate",
+            "votes",
+            "unverified",
+            "scaled",
+        ] {
             announce(what, black_box(0));
             let Ok(()) = support::timed(&mut pin, || measure(|| black_box(())));
         }
@@ -204,11 +267,13 @@ mod firmware {
     fn main() -> ! {
         let state = size_of::<Estimator>() + size_of::<Reference>();
         defmt::println!(
-            "config side={=usize} n_theta={=usize} estimator={=usize} reference={=usize}",
+            "config side={=usize} n_theta={=usize} estimator={=usize} reference={=usize} pyramid={=usize} reference_grid={=usize}",
             SIDE,
             N_THETA,
             size_of::<Estimator>(),
-            size_of::<Reference>()
+            size_of::<Reference>(),
+            4 * pyramid_words(SIDE, SIDE),
+            size_of::<BenchGrid>()
         );
         if state as u32 > stack_pointer().saturating_sub(RAM_ORIGIN) {
             defmt::println!("does-not-fit state={=usize}", state);

@@ -3,11 +3,16 @@
 //!
 //! The reference is the room as the robot first saw it; each later view (here
 //! five 128² grids rasterised into flash at compile time, standing in for laser
-//! scans) costs one signature, not two. For each view the heading change of the
-//! robot is `−α` (when the robot turns left, the scene turns right; DESIGN.md
-//! §2). A GPIO pin is high during each estimate. The program exits through
-//! semihosting with status 0 when every view's α is within 1° of its known
-//! rotation, 1 otherwise. On the host this example is an empty stub.
+//! scans) costs one signature, not two, plus the verification by alignment
+//! against the grid the reference keeps (on by default in `Mode::Improved`).
+//! For each view the heading change of the robot is `−α` (when the robot turns
+//! left, the scene turns right; DESIGN.md §2). A GPIO pin is high during each
+//! estimate. The program exits through semihosting with status 0 when every
+//! view's α is within 1° of its known rotation, its translation within
+//! [`TOLERANCE_MCELLS`] of its known shift per axis, its status `Confident`
+//! and its overlap at least [`MIN_OVERLAP_PERMILLE`] (the bounds of
+//! `two_grids`, which explains them), 1 otherwise. On the host this example
+//! is an empty stub.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(target_os = "none")]
@@ -15,7 +20,7 @@ mod support;
 
 #[cfg(target_os = "none")]
 mod firmware {
-    use hough_heading::{estimator, grid, row_words, Grid, Mode};
+    use hough_heading::{estimator, grid, row_words, Grid, Mode, Score, Status};
 
     use crate::support::room::{room_words, Pose};
     use crate::support::{self, ScopePin};
@@ -28,6 +33,10 @@ mod firmware {
     const RW: usize = row_words(SIDE);
     /// Largest accepted error, millidegrees.
     const TOLERANCE_MDEG: i32 = 1_000;
+    /// Largest accepted translation error per axis, millicells.
+    const TOLERANCE_MCELLS: i32 = 500;
+    /// Smallest accepted overlap, ‰ of the sampled cells.
+    const MIN_OVERLAP_PERMILLE: i32 = 900;
 
     type Estimator = estimator!(SIDE, SIDE, N_THETA);
     type View = grid!(SIDE, SIDE);
@@ -86,14 +95,30 @@ mod firmware {
             let Ok(estimate) = support::timed(&mut pin, || estimator.estimate(&reference, view));
             let expected = support::angle_of_degrees(pose.degrees as i32);
             let error = support::error_millidegrees(estimate.alpha, expected);
-            let ok = error.abs() <= TOLERANCE_MDEG;
+            // Q16.16 to thousandths.
+            let milli = |v: Score| ((i64::from(v.to_bits()) * 1000) >> 16) as i32;
+            let (ex, ey) = estimate.translation.map_or((i32::MAX, i32::MAX), |t| {
+                (
+                    milli(t.x).saturating_sub((pose.dx * 1000.0) as i32),
+                    milli(t.y).saturating_sub((pose.dy * 1000.0) as i32),
+                )
+            });
+            let overlap = milli(estimate.overlap);
+            let ok = error.abs() <= TOLERANCE_MDEG
+                && ex.abs() <= TOLERANCE_MCELLS
+                && ey.abs() <= TOLERANCE_MCELLS
+                && estimate.status == Status::Confident
+                && overlap >= MIN_OVERLAP_PERMILLE;
             failures += u32::from(!ok);
             defmt::println!(
-                "view {=usize}: alpha = {=i32} mdeg, heading change = {=i32} mdeg, error {=i32} mdeg, {=str}, {=str}",
+                "view {=usize}: alpha = {=i32} mdeg, heading change = {=i32} mdeg, error {=i32} mdeg, t error ({=i32}, {=i32}) millicells, overlap {=i32} ‰, {=str}, {=str}",
                 i,
                 support::millidegrees(estimate.alpha),
                 -support::millidegrees(estimate.alpha),
                 error,
+                ex,
+                ey,
+                overlap,
                 support::status_name(estimate.status),
                 if ok { "ok" } else { "WRONG" }
             );

@@ -5,10 +5,18 @@
 #   bash tools/budgets.sh --check    # measure, print the table, fail on > 10 % growth over budgets/budgets.json
 #   bash tools/budgets.sh --only 128x128/360   # one configuration, printed only (a quick look while working)
 #
+# Where the instructions of one measured region go (after a run, which leaves
+# the bench ELFs in target/budgets/<triple>/; needs llvm-addr2line), e.g. the
+# verification by alignment on the Cortex-M4F:
+#
+#   target/tools/debug/budgets profile --machine mps2-an386 --region estimate --minus unverified \
+#       target/budgets/thumbv7em-none-eabihf/bench-128-360.elf
+#
 # For 64², 128² and 256² room outlines with N_THETA = 360 and the paper's
 # recommended range, on Cortex-M4F (QEMU mps2-an386), Cortex-M0 (QEMU microbit)
 # and RV32IMAC (built only): instructions per estimate and per vote (exact
 # counts from the qemu-icount TCG plugin), estimator state and peak stack,
+# the verification by alignment's share (the estimate with and without it),
 # static RAM and the library's flash. See tools/budgets/src/main.rs.
 set -euo pipefail
 cd "$(dirname "$0")/.."

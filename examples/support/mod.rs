@@ -104,6 +104,7 @@ pub fn status_name(status: Status) -> &'static str {
         Status::Confident => "confident",
         Status::AmbiguousDirection => "ambiguous-direction",
         Status::AmbiguousAxis => "ambiguous-axis",
+        Status::LowOverlap => "low-overlap",
         Status::NoStructure => "no-structure",
     }
 }

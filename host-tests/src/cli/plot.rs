@@ -175,7 +175,64 @@ fn plot_pair(
 
 fn write_sheet(path: &Path, engine: &dyn Engine, context: &Context) -> Result<(), Fatal> {
     draw_sheet(path, engine, context)
-        .map_err(|e| Fatal::io(format!("{}: cannot draw: {e}", path.display())))
+        .map_err(|e| Fatal::io(format!("{}: cannot draw: {e}", path.display())))?;
+    if context.estimate.candidates.iter().any(|c| c.alignment.is_some()) {
+        let candidates = path.with_file_name(format!(
+            "{}-candidates.png",
+            path.file_stem().map_or("sheet".into(), |s| s.to_string_lossy())
+        ));
+        draw_candidates(&candidates, engine, context)
+            .map_err(|e| Fatal::io(format!("{}: cannot draw: {e}", candidates.display())))?;
+        eprintln!("hough-heading: wrote {}", candidates.display());
+    }
+    Ok(())
+}
+
+/// One panel per verified candidate: grid 2 laid on grid 1 by the
+/// candidate's rotation and best translation, titled with its alignment.
+fn draw_candidates(path: &Path, engine: &dyn Engine, context: &Context) -> Drawn {
+    let (a, b) = (engine.image(View::First), engine.image(View::Second));
+    let e = &context.estimate;
+    let root = BitMapBackend::new(path, (SHEET.0, SHEET.0 / 4 + 70)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let (header, body) = root.split_vertically(50);
+    header.draw(&Text::new(
+        format!(
+            "{}: candidates verified by alignment (status {}, overlap {:.2})",
+            context.title,
+            scans::status_name(e.status),
+            e.overlap.to_num::<f64>()
+        ),
+        (12, 12),
+        (FONT, 20).into_font(),
+    ))?;
+    let panels = body.split_evenly((1, 4));
+    for (i, panel) in panels.iter().enumerate() {
+        match e.candidates.get(i) {
+            Some(c) => {
+                let alpha = f64::from(c.alpha.to_degrees());
+                let t = c
+                    .translation
+                    .map(|(x, y)| (x.to_num::<f64>(), y.to_num::<f64>()));
+                let chosen = if c.alpha == e.alpha { ", chosen" } else { "" };
+                overlay_panel(
+                    panel,
+                    &a,
+                    &b,
+                    alpha,
+                    t,
+                    &format!(
+                        "α = {alpha:+.2}°: alignment {:.2}{chosen}",
+                        c.alignment.map_or(0.0, |v| v.to_num::<f64>())
+                    ),
+                    if chosen.is_empty() { C_TRUTH } else { C2 },
+                )?;
+            }
+            None => text_panel(panel, "", &[])?,
+        }
+    }
+    root.present()?;
+    Ok(())
 }
 
 fn draw_sheet(path: &Path, engine: &dyn Engine, context: &Context) -> Drawn {
@@ -255,11 +312,18 @@ fn draw_sheet(path: &Path, engine: &dyn Engine, context: &Context) -> Drawn {
         "candidates α: {}",
         e.candidates
             .iter()
-            .map(|c| format!(
-                "{:+.2}° ({:.2})",
-                c.alpha.to_degrees(),
-                c.score.to_num::<f64>()
-            ))
+            .map(|c| match c.alignment {
+                Some(a) => format!(
+                    "{:+.2}° (alignment {:.2})",
+                    c.alpha.to_degrees(),
+                    a.to_num::<f64>()
+                ),
+                None => format!(
+                    "{:+.2}° ({:.2})",
+                    c.alpha.to_degrees(),
+                    c.score.to_num::<f64>()
+                ),
+            })
             .collect::<Vec<_>>()
             .join(", ")
     ));

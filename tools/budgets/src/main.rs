@@ -3,6 +3,7 @@
 //! ```text
 //! budgets run --machine MACHINE [--timeout SECONDS] ELF
 //! budgets report [--check] [--only SIDExSIDE/N] [--root DIR] [--plugin LIB]
+//! budgets profile --machine MACHINE [--region NAME] [--minus NAME] [--top N] [--root DIR] [--plugin LIB] ELF
 //! ```
 //!
 //! `run` starts a firmware ELF on a `qemu-system-arm` machine with semihosting,
@@ -19,8 +20,16 @@
 //! `target/budgets/measured.json`) and fails when a value grew by more than
 //! 10 % over `budgets/budgets.json`. Both fail on a wrong estimate.
 //! `bash tools/budgets.sh` builds the tools and runs `report`.
+//!
+//! `profile` runs a bench ELF (as `report` leaves them in
+//! `target/budgets/<triple>/bench-<side>-<n>.elf`) with the plugin's flat
+//! profile and prints where the instructions of one region (default
+//! `estimate`) go, optionally minus another region, by function, inlined
+//! function, library source line and calls (see `profile.rs`). E.g. the
+//! verification's cost: `--region estimate --minus unverified`.
 
 mod elf;
+mod profile;
 mod qemu;
 mod report;
 
@@ -38,8 +47,11 @@ fn main() -> ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("run") => run(&args[1..]),
         Some("report") => report(&args[1..]),
+        Some("profile") => profile(&args[1..]),
         _ => Err(
-            "usage: budgets run --machine M [--timeout S] ELF | budgets report [--check] [--only SIDExSIDE/N]".into(),
+            "usage: budgets run --machine M [--timeout S] ELF | budgets report [--check] [--only SIDExSIDE/N] \
+             | budgets profile --machine M [--region NAME] [--minus NAME] [--top N] ELF"
+                .into(),
         ),
     };
     match result {
@@ -84,6 +96,34 @@ fn run(args: &[String]) -> Result<ExitCode, Error> {
         }
         None => ExitCode::FAILURE,
     })
+}
+
+/// `budgets profile --machine M [--region NAME] [--minus NAME] [--top N] ELF`.
+fn profile(args: &[String]) -> Result<ExitCode, Error> {
+    let machine = option(args, "--machine").ok_or("--machine is required")?;
+    let elf = args
+        .last()
+        .filter(|a| !a.starts_with("--"))
+        .ok_or("ELF path missing")?;
+    let root = PathBuf::from(option(args, "--root").unwrap_or("."));
+    let root = root.canonicalize().unwrap_or(root);
+    let plugin = option(args, "--plugin")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root.join("target/tools/debug/libqemu_icount.so"));
+    if !plugin.exists() {
+        return Err(format!("plugin {} not built", plugin.display()).into());
+    }
+    profile::run(&profile::Request {
+        elf: Path::new(elf),
+        machine,
+        plugin,
+        region: option(args, "--region").unwrap_or("estimate"),
+        minus: option(args, "--minus"),
+        top: option(args, "--top").map_or(Ok(25), str::parse)?,
+        scratch: root.join("target/budgets"),
+        root: root.clone(),
+    })?;
+    Ok(ExitCode::SUCCESS)
 }
 
 /// `budgets report [--check] [--only SIDExSIDE/N]`.
@@ -198,7 +238,7 @@ fn update_readme(path: &Path, table: &str) -> Result<(), Error> {
     Ok(())
 }
 
-/// `budgets/TABLE.md`: the table with how it was made.
+/// `budgets/TABLE.md`: the tables with how they were made.
 fn table_page(table: &str) -> String {
     format!(
         "# Firmware budgets\n\n\
@@ -206,20 +246,30 @@ fn table_page(table: &str) -> String {
          when a value grows by more than 10 % over `budgets/budgets.json`).\n\n\
          {table}\n\
          - Scene: two room outlines (`examples/support/room.rs`) in flash, the second turned by 30° and \
-         shifted; `Mode::Improved`. Every estimate above was checked against the 30° (±1°).\n\
+         shifted; `Mode::Improved`. Every estimate above was checked against the 30° (±1°), with and \
+         without the verification, and the verified one was checked to carry an overlap and an \
+         alignment on every candidate.\n\
          - *instr. / estimate*: guest instructions of `Estimator::estimate` against a prepared reference, \
+         as built (`Mode::Improved`: with the verification by alignment), \
          counted exactly by the `qemu-icount` TCG plugin (`tools/qemu-icount`) between two marker \
          functions, minus the markers' own cost. *instr. / vote*: that divided by the votes (occupied \
          cells × N_θ/2). *vote loop*: the estimator's vote primitive alone (`vote_column_pair` over \
          θ ∈ [0, π), no column reductions). *instr. / reference*: \
          `Estimator::reference`. The estimate includes the translation (the column shifts come from \
-         the direction test's profile matches, then `fit_translation`). *scale search, extra \
-         instr.*: \
-         the same estimate with `with_scale_search(ScaleRange::DEFAULT)` minus the plain one (its \
-         scale is checked to be 1 ± 3 %).\n\
+         the direction test's profile matches, then `fit_translation`; with the verification, the \
+         aligned pose). *scale search, extra instr.*: \
+         the same estimate with `with_scale_search(ScaleRange::DEFAULT)` (verified as well) minus \
+         *instr. / estimate* (its scale is checked to be 1 ± 3 %).\n\
          - *estimator RAM*: `size_of` the estimator and the reference, plus the peak stack of the \
-         estimate call (and how much more the estimate with the scale search needs): the lowest stack address written during it (the plugin watches every store), below the \
+         estimate call (and how much more the estimate with the scale search needs): the lowest \
+         stack address written during it (the plugin watches every store), below the \
          stack pointer at the call. The grids are not counted (they are inputs, here in flash).\n\
+         - Verification table: the same estimate with the verification (the default) and with \
+         `with_verification(false)`; *extra instr.* is the difference. *verification state*: the \
+         estimator's pyramid (`4 · pyramid_words(W, H)` bytes) and the grid the reference keeps \
+         (`size_of` a grid), part of the state whether the verification runs or not. *extra RAM*: \
+         that state plus the verified estimate's peak stack minus the unverified one's. *overlap*: \
+         `Estimate::overlap` of the verified estimate.\n\
          - *static RAM*: `.data + .bss` of the whole firmware (logger, runtime); the library has none. \
          *library flash*: flash of the firmware minus the same firmware built without calling the \
          library (`HH_BENCH_BASELINE=1`) minus the two grids.\n\

@@ -35,6 +35,9 @@ pub struct Plugin {
     pub stop: u64,
     /// The stack region `[lo, hi)` to watch.
     pub stack: (u64, u64),
+    /// Where the plugin writes its flat profile, if one is wanted
+    /// (`budgets profile`).
+    pub profile: Option<PathBuf>,
 }
 
 /// Runs `elf` on QEMU machine `machine` with semihosting, optionally with the
@@ -57,14 +60,18 @@ pub fn run(
         .stdout(Stdio::piped())
         .stderr(Stdio::piped());
     if let Some(p) = plugin {
-        command.arg("-plugin").arg(format!(
+        let mut argument = format!(
             "{},start={:#x},stop={:#x},stack_lo={:#x},stack_hi={:#x}",
             p.library.display(),
             p.start,
             p.stop,
             p.stack.0,
             p.stack.1
-        ));
+        );
+        if let Some(file) = &p.profile {
+            argument.push_str(&format!(",profile={}", file.display()));
+        }
+        command.arg("-plugin").arg(argument);
     }
     let mut child = command
         .spawn()

@@ -59,19 +59,29 @@ const SIDES: [usize; 3] = [64, 128, 256];
 pub const TOLERANCE: f64 = 0.10;
 
 /// Budget keys `--check` compares (all "smaller is better").
-const CHECKED: [&str; 11] = [
+const CHECKED: [&str; 17] = [
     "instructions_estimate",
+    "instructions_unverified",
+    "instructions_verification",
     "instructions_scale_search",
     "stack_scaled",
+    "stack_unverified",
+    "state_verification",
+    "ram_verification",
     "instructions_reference",
     "instructions_per_vote",
     "vote_loop_per_vote",
     "stack_estimate",
     "ram_estimator",
+    "ram_unverified",
     "static_ram",
     "flash_library",
     "flash_total",
 ];
+
+/// Measured regions of one bench run: overhead, reference, estimate, votes,
+/// unverified, scaled.
+const BENCHES: usize = 6;
 
 /// Time limit of one firmware run.
 const RUN_TIMEOUT: Duration = Duration::from_secs(60);
@@ -202,6 +212,7 @@ fn measure_run(
         start: image.start.ok_or("no hh_bench_start symbol")?,
         stop: image.stop.ok_or("no hh_bench_stop symbol")?,
         stack: image.stack.ok_or("no _stack_end/_stack_start symbols")?,
+        profile: None,
     };
     let run = qemu::run(elf_path, machine, Some(&plugin), RUN_TIMEOUT)?;
     let mut values = Map::new();
@@ -215,6 +226,13 @@ fn measure_run(
         .map(|k| field(config, k).and_then(number).unwrap_or(0))
         .sum::<u64>();
     values.insert("state".into(), json!(state));
+    // The state only the verification needs: the estimator's pyramid and the
+    // grid the reference keeps.
+    let state_verification = ["pyramid", "reference_grid"]
+        .iter()
+        .map(|k| field(config, k).and_then(number).unwrap_or(0))
+        .sum::<u64>();
+    values.insert("state_verification".into(), json!(state_verification));
 
     if run.status == Some(3) || run.log.iter().any(|l| l.starts_with("does-not-fit")) {
         return Ok(RunResult {
@@ -233,7 +251,7 @@ fn measure_run(
         })
         .collect();
     let benches: Vec<&String> = run.log.iter().filter(|l| l.starts_with("bench ")).collect();
-    if run.status != Some(0) || counts.len() != benches.len() || benches.len() != 5 {
+    if run.status != Some(0) || counts.len() != benches.len() || benches.len() != BENCHES {
         let why = if run.timed_out {
             "timed out (crash or stack overflow)".to_string()
         } else if run.status == Some(1) {
@@ -276,6 +294,7 @@ fn measure_run(
     let (reference, _, stack_reference) = get("reference");
     let (estimate, votes, stack_estimate) = get("estimate");
     let (vote_loop, _, _) = get("votes");
+    let (unverified, _, stack_unverified) = get("unverified");
     let (scaled, _, stack_scaled) = get("scaled");
     let ratio = |n: u64| {
         if votes == 0 {
@@ -292,7 +311,13 @@ fn measure_run(
     values.insert("votes".into(), json!(votes));
     values.insert("instructions_reference".into(), json!(reference));
     values.insert("instructions_estimate".into(), json!(estimate));
+    values.insert("instructions_unverified".into(), json!(unverified));
+    values.insert(
+        "instructions_verification".into(),
+        json!(estimate.saturating_sub(unverified)),
+    );
     values.insert("instructions_vote_loop".into(), json!(vote_loop));
+    // Both estimates verify (as built): the difference is the scale search.
     values.insert(
         "instructions_scale_search".into(),
         json!(scaled.saturating_sub(estimate)),
@@ -301,10 +326,25 @@ fn measure_run(
     values.insert("vote_loop_per_vote".into(), json!(ratio(vote_loop)));
     values.insert("stack_reference".into(), json!(stack_reference));
     values.insert("stack_estimate".into(), json!(stack_estimate));
+    values.insert("stack_unverified".into(), json!(stack_unverified));
     values.insert("stack_scaled".into(), json!(stack_scaled));
     values.insert(
         "ram_estimator".into(),
         json!(state + stack_estimate.max(stack_reference)),
+    );
+    values.insert(
+        "ram_unverified".into(),
+        json!(state + stack_unverified.max(stack_reference)),
+    );
+    // The verification's RAM: its state plus the extra peak stack of the
+    // verified estimate over the unverified one.
+    values.insert(
+        "stack_verification".into(),
+        json!(stack_estimate.saturating_sub(stack_unverified)),
+    );
+    values.insert(
+        "ram_verification".into(),
+        json!(state_verification + stack_estimate.saturating_sub(stack_unverified)),
     );
     let alpha = field(result, "alpha_mdeg")
         .and_then(|v| v.parse::<i64>().ok())
@@ -314,6 +354,15 @@ fn measure_run(
         "status".into(),
         json!(field(result, "status").unwrap_or("?")),
     );
+    if let Some(overlap) = run
+        .log
+        .iter()
+        .find(|l| l.starts_with("checks "))
+        .and_then(|l| field(l, "overlap_permille"))
+        .and_then(number)
+    {
+        values.insert("overlap_permille".into(), json!(overlap));
+    }
     Ok(RunResult {
         does_not_fit: None,
         values,
@@ -333,7 +382,7 @@ fn crashed_stack_pointer(stderr: &str) -> Option<u64> {
 pub struct Measured {
     /// The budget-file body.
     pub targets: Map<String, Value>,
-    /// The Markdown table.
+    /// The Markdown tables: the budgets, then the verification's share.
     pub table: String,
     /// Wrong estimates, crashes.
     pub failures: Vec<String>,
@@ -345,6 +394,7 @@ pub fn measure(paths: &Paths, only: Option<&str>) -> Result<Measured, Error> {
     let mut targets = Map::new();
     let mut failures = Vec::new();
     let mut rows = Vec::new();
+    let mut verification_rows = Vec::new();
     for target in &TARGETS {
         eprintln!("budgets: {} ({})", target.name, target.triple);
         let baseline = elf::read(&build(paths, target, None)?)?;
@@ -372,13 +422,20 @@ pub fn measure(paths: &Paths, only: Option<&str>) -> Result<Measured, Error> {
             }
             values.insert("fits".into(), json!(fits));
             rows.push(row(target, config, &values));
+            if target.machine.is_some() {
+                verification_rows.push(verification_row(target, config, &values));
+            }
             entries.insert(config.key(), Value::Object(values));
         }
         targets.insert(target.triple.into(), Value::Object(entries));
     }
     Ok(Measured {
         targets,
-        table: table(&rows),
+        table: format!(
+            "{}\n{}",
+            table(&HEADER, &rows),
+            table(&VERIFICATION_HEADER, &verification_rows)
+        ),
         failures,
     })
 }
@@ -406,8 +463,8 @@ fn row(target: &Target, config: &Config, v: &Map<String, Value>) -> Vec<String> 
         );
         cells.extend([note, "".into(), "".into(), "".into(), "".into(), "".into()]);
     } else {
-        // The plain estimate's peak stack, and how much more the scale
-        // search needs.
+        // The estimate's peak stack, and how much more the scale search
+        // needs.
         let ram = match (int("state"), int("stack_estimate")) {
             (Some(state), Some(stack)) => {
                 let extra = int("stack_scaled").map_or(0, |s| s.saturating_sub(stack));
@@ -444,22 +501,87 @@ fn group(n: u64) -> String {
     out
 }
 
-/// The Markdown table.
-fn table(rows: &[Vec<String>]) -> String {
-    let header = [
-        "target",
-        "grid",
-        "N_θ",
-        "instr. / estimate",
-        "instr. / vote",
-        "vote loop instr. / vote",
-        "instr. / reference",
-        "scale search, extra instr.",
-        "estimator RAM (state + stack)",
-        "votes",
-        "static RAM",
-        "library flash",
-    ];
+/// One row of the verification table: the estimate with and without the
+/// verification by alignment, and the difference.
+fn verification_row(target: &Target, config: &Config, v: &Map<String, Value>) -> Vec<String> {
+    let int = |k: &str| v.get(k).and_then(Value::as_u64);
+    let count = |k: &str| int(k).map_or("–".into(), group);
+    let n = match config.choice {
+        "360" => "360".to_string(),
+        choice => format!("{} ({choice})", config.n_theta),
+    };
+    let mut cells = vec![target.name.to_string(), format!("{0}²", config.side), n];
+    if v.get("fits") == Some(&Value::Bool(false)) {
+        let state = int("state").unwrap_or(0);
+        cells.push(format!(
+            "does not fit: state {state} B (verification {} B) + stack > {} KiB RAM",
+            int("state_verification").unwrap_or(0),
+            target.ram >> 10
+        ));
+        cells.extend(std::iter::repeat_n(
+            String::new(),
+            VERIFICATION_HEADER.len() - 4,
+        ));
+        return cells;
+    }
+    let pair = |a: &str, b: &str| match (int(a), int(b)) {
+        (Some(a), Some(b)) => format!("{a} B / {b} B"),
+        _ => "–".into(),
+    };
+    let state = match (int("state_verification"), int("state")) {
+        (Some(part), Some(state)) => format!("{part} B (of {state} B)"),
+        _ => "–".into(),
+    };
+    let ram = match (int("ram_verification"), int("state_verification")) {
+        (Some(ram), Some(state)) => format!("{ram} B ({state} + {})", ram - state),
+        _ => "–".into(),
+    };
+    let overlap =
+        int("overlap_permille").map_or("–".into(), |p| format!("{}.{} %", p / 10, p % 10));
+    cells.extend([
+        count("instructions_estimate"),
+        count("instructions_unverified"),
+        count("instructions_verification"),
+        pair("stack_estimate", "stack_unverified"),
+        state,
+        ram,
+        overlap,
+    ]);
+    cells
+}
+
+/// Columns of the budget table.
+const HEADER: [&str; 12] = [
+    "target",
+    "grid",
+    "N_θ",
+    "instr. / estimate",
+    "instr. / vote",
+    "vote loop instr. / vote",
+    "instr. / reference",
+    "scale search, extra instr.",
+    "estimator RAM (state + stack)",
+    "votes",
+    "static RAM",
+    "library flash",
+];
+
+/// Columns of the verification table.
+const VERIFICATION_HEADER: [&str; 10] = [
+    "target",
+    "grid",
+    "N_θ",
+    "instr. / estimate, verification on",
+    "verification off",
+    "verification, extra instr.",
+    "peak stack on / off",
+    "verification state (pyramid + reference grid)",
+    "verification, extra RAM (state + stack)",
+    "overlap",
+];
+
+/// A Markdown table.
+fn table(header: &[&str], rows: &[Vec<String>]) -> String {
     let mut out = String::new();
     let _ = writeln!(out, "| {} |", header.join(" | "));
     let _ = writeln!(out, "|{}", "---|".repeat(header.len()));

@@ -2,7 +2,10 @@
 //!
 //! This bare-metal binary calls every public entry point of the library with
 //! inputs the optimiser cannot see (`core::hint::black_box`), for four
-//! estimator configurations. Each group of calls sits in its own
+//! estimator configurations, including the verification by alignment
+//! (estimates with it on and off, `Reference::grid`, `Grid::occupied_cells`,
+//! the pyramid sizes) and stored references of the previous format (version
+//! 2, which `Reference::from_bytes` must refuse with a typed error). Each group of calls sits in its own
 //! `#[inline(never)]` function named `entry_*`, so a remaining panic path can
 //! be attributed to the entry point that reaches it.
 //!
@@ -28,10 +31,11 @@
 use core::hint::black_box;
 use hough_heading::{
     fit_translation, match_profile, match_profile_near, max_votes_per_bin, paper_asymmetry,
-    range_percentile, recommended_n_theta, rho_bins, row_words, vote_column, vote_column_split,
-    Accumulator, Angle, Column, ColumnShift, ColumnStats, Correlation, Estimator, Grid, Mode, Peak,
-    PeakKind, Prior, Raster, Reference, ScaleRange, Scan, ScanStats, Score, SensorOffset,
-    Signature, Thresholds, WeightedShift, RUNNERS_UP,
+    pyramid_levels, pyramid_words, range_percentile, recommended_n_theta, rho_bins, row_words,
+    vote_column, vote_column_split, Accumulator, Angle, Column, ColumnShift, ColumnStats,
+    Correlation, Error, Estimator, Grid, Mode, Peak, PeakKind, Prior, Raster, Reference,
+    ScaleRange, Scan, ScanStats, Score, SensorOffset, Signature, Thresholds, WeightedShift,
+    ALIGN_POINTS, REFERENCE_FORMAT, RUNNERS_UP,
 };
 
 /// Any value of `T`, as far as the optimiser knows.
@@ -61,6 +65,8 @@ fn opaque_thresholds() -> Thresholds {
         direction_margin: Score::from_bits(opaque(0)),
         min_occupied: opaque(0),
         max_shift_fraction: Score::from_bits(opaque(0)),
+        alignment_ratio: Score::from_bits(opaque(0)),
+        min_overlap: Score::from_bits(opaque(0)),
     }
 }
 
@@ -75,14 +81,17 @@ fn entry_grid<const W: usize, const H: usize, const RW: usize>() -> Grid<W, H, R
     let _ = opaque(g.set_point(opaque(0.0), opaque(0.0)));
     opaque(g.occupied());
     opaque(g.words());
+    for cell in g.occupied_cells() {
+        opaque(cell);
+    }
     if opaque(false) {
         g.clear_all();
     }
     g
 }
 
-/// The estimator: references, estimates with and without a prior, the
-/// result's helpers.
+/// The estimator: references, estimates with and without a prior and with
+/// and without the verification, the result's helpers.
 #[inline(never)]
 fn entry_estimator<
     const W: usize,
@@ -91,14 +100,17 @@ fn entry_estimator<
     const N: usize,
     const HALF: usize,
     const RHO: usize,
+    const PW: usize,
 >(
     g1: &Grid<W, H, RW>,
     g2: &Grid<W, H, RW>,
 ) {
-    let mut e = Estimator::<W, H, RW, N, HALF, RHO>::new(opaque_mode());
+    let mut e = Estimator::<W, H, RW, N, HALF, RHO, PW>::new(opaque_mode());
     if opaque(false) {
         e = e.with_thresholds(opaque_thresholds());
     }
+    e = e.with_verification(opaque(true));
+    opaque(e.verification());
     if opaque(false) {
         if let Ok(range) = ScaleRange::new(opaque(Score::ONE), opaque(Score::ONE)) {
             e = e.with_scale_search(range);
@@ -108,7 +120,15 @@ fn entry_estimator<
     opaque(e.scale_search());
     opaque(e.thresholds());
     let reference = e.reference(g1);
+    opaque(reference.grid());
+    for cell in reference.grid().occupied_cells() {
+        opaque(cell);
+    }
     let estimate = e.estimate(&reference, g2);
+    opaque(estimate.overlap);
+    for candidate in &estimate.candidates {
+        opaque(candidate.alignment);
+    }
     opaque(estimate.half_turn.margin());
     if let Some(t) = &estimate.translation {
         opaque(t.column_shift_q16((opaque(0), opaque(0))));
@@ -120,13 +140,23 @@ fn entry_estimator<
         sigma: Angle(opaque(0)),
     };
     opaque(e.estimate_with_prior(&reference, g2, opaque(Some(prior))));
+    // The verification explicitly on (improved mode) and off.
+    let mut verified = Estimator::<W, H, RW, N, HALF, RHO, PW>::new(Mode::Improved)
+        .with_verification(true)
+        .with_thresholds(opaque(Thresholds::DEFAULT));
+    opaque(verified.estimate(&reference, g2));
+    opaque(verified.estimate_with_prior(&reference, g2, opaque(Some(prior))));
+    let mut plain = verified.with_verification(false);
+    opaque(plain.verification());
+    opaque(plain.estimate(&reference, g2));
     opaque(e.current_signature());
     opaque(e.mode());
     opaque(Mode::peak_kind(opaque_mode()));
 }
 
 /// A stored reference: bytes in, bytes out, and an estimate against a
-/// reference read from arbitrary (checksummed) bytes.
+/// reference read from arbitrary (checksummed) bytes, with the verification
+/// on and off; bytes of the previous format (version 2) give a typed error.
 #[inline(never)]
 fn entry_reference_bytes<
     const W: usize,
@@ -135,19 +165,31 @@ fn entry_reference_bytes<
     const N: usize,
     const HALF: usize,
     const RHO: usize,
+    const PW: usize,
 >(
     bytes: &[u8],
+    version_2: &[u8],
     grid: &Grid<W, H, RW>,
 ) {
-    if let Ok(reference) = Reference::<W, H, HALF, RHO>::from_bytes(bytes) {
+    if let Ok(reference) = Reference::<W, H, RW, HALF, RHO>::from_bytes(bytes) {
         opaque(reference.signature());
         opaque(reference.profiles());
         opaque(reference.occupied());
+        opaque(reference.grid());
         let mut out = opaque([0u8; 64]);
         let len = opaque(0usize).min(out.len());
         let _ = opaque(reference.to_bytes(out.get_mut(..len).unwrap_or(&mut [])));
-        let mut e = Estimator::<W, H, RW, N, HALF, RHO>::new(opaque_mode());
+        let mut e = Estimator::<W, H, RW, N, HALF, RHO, PW>::new(opaque_mode())
+            .with_verification(opaque(true));
         opaque(e.estimate(&reference, grid));
+    }
+    match Reference::<W, H, RW, HALF, RHO>::from_bytes(version_2) {
+        Err(Error::ReferenceVersion { found, expected }) => {
+            opaque((found, expected));
+        }
+        other => {
+            opaque(other.is_ok());
+        }
     }
 }
 
@@ -256,6 +298,10 @@ fn entry_config() {
     opaque(rho_bins(opaque(0), opaque(0)));
     opaque(recommended_n_theta(opaque(0), opaque(0)));
     opaque(max_votes_per_bin(opaque(0), opaque(0)));
+    opaque(pyramid_levels(opaque(0), opaque(0)));
+    opaque(pyramid_words(opaque(0), opaque(0)));
+    opaque(ALIGN_POINTS);
+    opaque(REFERENCE_FORMAT);
 }
 
 /// Laser scans to grids and the estimate back to a motion.
@@ -298,20 +344,22 @@ fn configuration<
     const N: usize,
     const HALF: usize,
     const RHO: usize,
+    const PW: usize,
 >(
     bytes: &[u8],
+    version_2: &[u8],
 ) {
     let mut g1 = entry_grid::<W, H, RW>();
     let g2 = entry_grid::<W, H, RW>();
-    entry_estimator::<W, H, RW, N, HALF, RHO>(&g1, &g2);
-    entry_reference_bytes::<W, H, RW, N, HALF, RHO>(bytes, &g2);
+    entry_estimator::<W, H, RW, N, HALF, RHO, PW>(&g1, &g2);
+    entry_reference_bytes::<W, H, RW, N, HALF, RHO, PW>(bytes, version_2, &g2);
     entry_votes::<W, H, RW, N, HALF, RHO>(&g1);
     entry_matching::<HALF, RHO>();
     entry_scan::<W, H, RW>(&mut g1);
 }
 
 macro_rules! configuration {
-    ($w:expr, $h:expr, $n:expr, $bytes:expr) => {
+    ($w:expr, $h:expr, $n:expr, $bytes:expr, $version_2:expr) => {
         configuration::<
             $w,
             $h,
@@ -319,19 +367,31 @@ macro_rules! configuration {
             $n,
             { hough_heading::half_turn_steps($n) },
             { rho_bins($w, $h) },
-        >($bytes)
+            { pyramid_words($w, $h) },
+        >($bytes, $version_2)
     };
 }
 
 /// The entry point of the binary: calls every check once.
 #[no_mangle]
 pub extern "C" fn _start() -> ! {
-    static BYTES: [u8; 8192] = [0; 8192];
+    // Longer than the largest reference (256², N = 720).
+    static BYTES: [u8; 16384] = [0; 16384];
+    /// The header of a version-2 reference (before the grid was kept).
+    static VERSION_2: [u8; 16384] = {
+        let mut b = [0u8; 16384];
+        b[0] = b'H';
+        b[1] = b'H';
+        b[2] = b'R';
+        b[3] = b'2';
+        b
+    };
     let bytes: &[u8] = opaque(&BYTES);
-    configuration!(64, 64, 128, bytes);
-    configuration!(128, 128, 360, bytes);
-    configuration!(160, 90, 512, bytes);
-    configuration!(256, 256, 720, bytes);
+    let version_2: &[u8] = opaque(&VERSION_2);
+    configuration!(64, 64, 128, bytes, version_2);
+    configuration!(128, 128, 360, bytes, version_2);
+    configuration!(160, 90, 512, bytes, version_2);
+    configuration!(256, 256, 720, bytes, version_2);
     entry_translation();
     entry_angle();
     entry_config();

@@ -33,13 +33,23 @@
 //! Output goes to standard error, one line per start/stop pair, so that it
 //! never mixes with `defmt` frames, which the firmware sends to standard output.
 //!
+//! With `profile=<file>` the plugin also counts every guest instruction
+//! address on its own (one more inline counter per instruction, in a second
+//! scoreboard) and appends to `<file>`, for each start/stop pair, a line
+//! `region <k> <n>` (`k` from 0, `n` the count above) followed by one line
+//! `<address> <executions>` per instruction executed between the markers: an
+//! exact flat profile, which `budgets profile` maps to the library's functions
+//! and source lines (what `callgrind --toggle-collect` gives on the host).
+//!
 //! QEMU 10.0 speaks plugin API version 4; the bindings come from
 //! `qemu-plugin-sys` (Debian's QEMU ships no plugin headers).
 
+use std::collections::HashMap;
 use std::ffi::{c_char, c_int, c_uint, c_void, CStr};
 use std::io::Write;
 use std::ptr;
 use std::sync::atomic::{AtomicBool, AtomicPtr, AtomicU64, Ordering};
+use std::sync::Mutex;
 
 use qemu_plugin_sys::{
     qemu_info_t, qemu_plugin_cb_flags, qemu_plugin_id_t, qemu_plugin_insn_vaddr,
@@ -72,6 +82,107 @@ static STACK_HI: AtomicU64 = AtomicU64::new(0);
 /// Lowest stack address stored to since the start marker (`u64::MAX`: none).
 static STACK_LOW: AtomicU64 = AtomicU64::new(u64::MAX);
 
+/// Most distinct instruction addresses the profile counts (8 bytes each per
+/// vCPU; a firmware's code is far smaller).
+const PROFILE_SLOTS: usize = 1 << 18;
+
+/// The flat profile, when `profile=<file>` was given.
+struct Profile {
+    /// Where the regions are appended.
+    path: String,
+    /// Per-vCPU counters, one `u64` per profiled instruction address.
+    scoreboard: *mut qemu_plugin_scoreboard,
+    /// Instruction address → counter slot.
+    slots: HashMap<u64, usize>,
+    /// The counters' values when the start marker executed (vCPU 0).
+    latched: Vec<u64>,
+    /// Regions written so far.
+    regions: usize,
+}
+
+// SAFETY: the scoreboard pointer is only handed back to QEMU's API, which
+// may be called from any vCPU thread; the profile sits behind a mutex.
+unsafe impl Send for Profile {}
+
+/// The profile, if asked for.
+static PROFILE: Mutex<Option<Profile>> = Mutex::new(None);
+
+/// The counter of profile slot `slot`.
+fn slot_counter(scoreboard: *mut qemu_plugin_scoreboard, slot: usize) -> qemu_plugin_u64 {
+    qemu_plugin_u64 {
+        score: scoreboard,
+        offset: slot * std::mem::size_of::<u64>(),
+    }
+}
+
+/// The profile counters of vCPU `vcpu`, slots `0..used`.
+fn profile_counts(profile: &Profile, vcpu: c_uint, used: usize) -> Vec<u64> {
+    (0..used)
+        // SAFETY: the scoreboard lives for the whole run; every slot is
+        // within the entry size it was created with.
+        .map(|slot| unsafe { qemu_plugin_u64_get(slot_counter(profile.scoreboard, slot), vcpu) })
+        .collect()
+}
+
+/// Latches the profile counters at the start marker.
+fn profile_start(vcpu: c_uint) {
+    let Ok(mut guard) = PROFILE.lock() else {
+        return;
+    };
+    if let Some(profile) = guard.as_mut() {
+        let used = profile.slots.len();
+        profile.latched = profile_counts(profile, vcpu, used);
+    }
+}
+
+/// Appends the region that just ended to the profile file.
+fn profile_stop(vcpu: c_uint, count: u64) {
+    let Ok(mut guard) = PROFILE.lock() else {
+        return;
+    };
+    let Some(profile) = guard.as_mut() else {
+        return;
+    };
+    let now = profile_counts(profile, vcpu, profile.slots.len());
+    let mut lines: Vec<(u64, u64)> = profile
+        .slots
+        .iter()
+        .filter_map(|(&addr, &slot)| {
+            let before = profile.latched.get(slot).copied().unwrap_or(0);
+            let n = now.get(slot).copied().unwrap_or(0).wrapping_sub(before);
+            (n > 0).then_some((addr, n))
+        })
+        .collect();
+    lines.sort_unstable();
+    let mut text = format!("region {} {count}\n", profile.regions);
+    for (addr, n) in lines {
+        text.push_str(&format!("{addr:#x} {n}\n"));
+    }
+    profile.regions += 1;
+    let written = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&profile.path)
+        .and_then(|mut f| f.write_all(text.as_bytes()));
+    if let Err(e) = written {
+        emit(&format!("hh-icount error: profile {}: {e}", profile.path));
+    }
+}
+
+/// The profile counter of the instruction at `vaddr`, allocating a slot on
+/// its first translation; `None` without a profile or when the slots ran out.
+fn profile_slot(vaddr: u64) -> Option<qemu_plugin_u64> {
+    let mut guard = PROFILE.lock().ok()?;
+    let profile = guard.as_mut()?;
+    let next = profile.slots.len();
+    let slot = *profile.slots.entry(vaddr).or_insert(next);
+    if slot >= PROFILE_SLOTS {
+        profile.slots.remove(&vaddr);
+        return None;
+    }
+    Some(slot_counter(profile.scoreboard, slot))
+}
+
 /// The scoreboard entry holding the instruction counter.
 fn counter() -> qemu_plugin_u64 {
     qemu_plugin_u64 {
@@ -103,6 +214,7 @@ unsafe extern "C" fn on_start(vcpu: c_uint, _: *mut c_void) {
     let now = unsafe { qemu_plugin_u64_get(counter(), vcpu) };
     LATCHED.store(now, Ordering::Relaxed);
     STACK_LOW.store(u64::MAX, Ordering::Relaxed);
+    profile_start(vcpu);
     RUNNING.store(true, Ordering::Relaxed);
 }
 
@@ -115,6 +227,7 @@ unsafe extern "C" fn on_stop(vcpu: c_uint, _: *mut c_void) {
     // SAFETY: as in `on_start`.
     let now = unsafe { qemu_plugin_u64_get(counter(), vcpu) };
     let count = now - LATCHED.load(Ordering::Relaxed);
+    profile_stop(vcpu, count);
     if STACK_HI.load(Ordering::Relaxed) == 0 {
         emit(&format!("hh-icount {count}"));
     } else {
@@ -150,6 +263,14 @@ unsafe extern "C" fn on_translate(_: qemu_plugin_id_t, tb: *mut qemu_plugin_tb) 
                 counter(),
                 1,
             );
+            if let Some(entry) = profile_slot(qemu_plugin_insn_vaddr(insn)) {
+                qemu_plugin_register_vcpu_insn_exec_inline_per_vcpu(
+                    insn,
+                    qemu_plugin_op::QEMU_PLUGIN_INLINE_ADD_U64,
+                    entry,
+                    1,
+                );
+            }
             if watch_stack {
                 qemu_plugin_register_vcpu_mem_cb(
                     insn,
@@ -189,7 +310,7 @@ unsafe extern "C" fn on_exit(_: qemu_plugin_id_t, _: *mut c_void) {
 /// Entry point called by QEMU when it loads the plugin.
 ///
 /// Arguments: `start=<addr>` and `stop=<addr>` (decimal or `0x` hex), and
-/// optionally `stack_lo=<addr>,stack_hi=<addr>`. Returns non-zero, which makes
+/// optionally `stack_lo=<addr>,stack_hi=<addr>` and `profile=<file>`. Returns non-zero, which makes
 /// QEMU refuse to start, when an argument is unknown or a marker is missing.
 ///
 /// # Safety
@@ -203,9 +324,14 @@ pub unsafe extern "C" fn qemu_plugin_install(
     argv: *mut *mut c_char,
 ) -> c_int {
     let mut have = (false, false);
+    let mut profile = None;
     for i in 0..usize::try_from(argc).unwrap_or(0) {
         // SAFETY: QEMU passes `argc` NUL-terminated strings.
         let arg = unsafe { CStr::from_ptr(*argv.add(i)) }.to_string_lossy();
+        if let Some(path) = arg.strip_prefix("profile=") {
+            profile = Some(path.to_string());
+            continue;
+        }
         let parsed = arg
             .split_once('=')
             .and_then(|(k, v)| Some((k, parse_addr(v)?)));
@@ -223,7 +349,7 @@ pub unsafe extern "C" fn qemu_plugin_install(
             _ => {
                 eprintln!(
                     "qemu-icount: unknown argument `{arg}` \
-                     (expected start=, stop=, stack_lo=, stack_hi= with an address)"
+                     (expected start=, stop=, stack_lo=, stack_hi= with an address, or profile=FILE)"
                 );
                 return 1;
             }
@@ -239,6 +365,23 @@ pub unsafe extern "C" fn qemu_plugin_install(
             qemu_plugin_scoreboard_new(std::mem::size_of::<u64>()),
             Ordering::Relaxed,
         );
+        if let Some(path) = profile {
+            // A fresh file: `profile_stop` appends.
+            if let Err(e) = std::fs::write(&path, "") {
+                eprintln!("qemu-icount: profile file {path}: {e}");
+                return 1;
+            }
+            let scoreboard = qemu_plugin_scoreboard_new(PROFILE_SLOTS * std::mem::size_of::<u64>());
+            if let Ok(mut guard) = PROFILE.lock() {
+                *guard = Some(Profile {
+                    path,
+                    scoreboard,
+                    slots: HashMap::new(),
+                    latched: Vec::new(),
+                    regions: 0,
+                });
+            }
+        }
         qemu_plugin_register_vcpu_tb_trans_cb(id, Some(on_translate));
         qemu_plugin_register_atexit_cb(id, Some(on_exit), ptr::null_mut());
     }
