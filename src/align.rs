@@ -210,6 +210,24 @@ fn bits(row: &[u32], lo: i32, n: u32) -> u32 {
     (low | high) & ((1u32 << n) - 1)
 }
 
+/// Whether any of `rows` has a bit in columns `lo..lo + n` (`n ≤ 31`): the
+/// word index and shift are computed once for all rows.
+#[inline]
+fn any_in_columns<const RW: usize>(rows: &[[u32; RW]], lo: i32, n: u32) -> bool {
+    let w = lo >> 5;
+    let b = (lo & 31) as u32;
+    let mask = (1u32 << n) - 1;
+    let index = |i: i32| usize::try_from(i).ok().filter(|&i| i < RW);
+    match (index(w), index(w + 1)) {
+        (Some(i), Some(j)) if b > 0 => rows
+            .iter()
+            .any(|r| ((r[i] >> b) | (r[j] << (32 - b))) & mask != 0),
+        (Some(i), _) => rows.iter().any(|r| (r[i] >> b) & mask != 0),
+        (None, Some(j)) if b > 0 => rows.iter().any(|r| (r[j] << (32 - b)) & mask != 0),
+        _ => false,
+    }
+}
+
 /// A point of image 2 turned into the reference frame, in reference cells
 /// `(col, row)`.
 pub(crate) type Cell = (i16, i16);
@@ -377,14 +395,10 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
             let reached = {
                 let (a, b) = (i32::from(c) + c0 - 1, i32::from(r) + r0 - 1);
                 if k <= EXACT_LEVELS {
-                    let width = (side + 2) as u32;
-                    (b.max(0)..(b + side + 2).min(H as i32)).any(|row| {
-                        bits(
-                            rows.get(row as usize).map_or(&[], |w| w.as_slice()),
-                            a,
-                            width,
-                        ) != 0
-                    })
+                    let reach = rows
+                        .get(b.max(0) as usize..(b + side + 2).clamp(0, H as i32) as usize)
+                        .unwrap_or(&[]);
+                    any_in_columns(reach, a, (side + 2) as u32)
                 } else {
                     let (lo_c, hi_c) = (a >> k, (a + side + 1) >> k);
                     let (lo_r, hi_r) = (b >> k, (b + side + 1) >> k);
@@ -617,7 +631,11 @@ pub(crate) fn refine<const W: usize, const H: usize, const RW: usize, const N: u
         i64::from(start.shift.0) << 8,
         -(i64::from(start.shift.1) << 8),
     );
+    // Point to point (cheap) until the steps are small, then point to line
+    // (a normal per match) for the last few.
+    let mut line_iterations = 0;
     for _ in 0..ICP_ITERATIONS {
+        let to_line = line_iterations > 0;
         let (cos, sin) = sin_cos_q15::<N>(alpha);
         let mut sums = PairSums::default();
         let mut lines = LineSums::default();
@@ -629,7 +647,7 @@ pub(crate) fn refine<const W: usize, const H: usize, const RW: usize, const N: u
             let q = ((x >> 8) + u.0, (y >> 8) + u.1);
             if let Some((m, cell)) = nearest_occupied::<W, H, RW>(reference, q) {
                 sums.add(q, m);
-                if let Some(n) = local_normal(reference, cell) {
+                if let Some(n) = to_line.then(|| local_normal(reference, cell)).flatten() {
                     lines.add(q, m, n);
                 }
             }
@@ -647,8 +665,15 @@ pub(crate) fn refine<const W: usize, const H: usize, const RW: usize, const N: u
             ((sd * u.0 + cd * u.1) >> 16) + step.1,
         );
         alpha = alpha + Angle(radians_q16_to_turns(-delta_q16) as u32);
-        if delta_q16.abs() < 4 && step.0.abs() < 2 && step.1.abs() < 2 {
-            break;
+        let small = delta_q16.abs() < 64 && step.0.abs() < 32 && step.1.abs() < 32;
+        let converged = delta_q16.abs() < 4 && step.0.abs() < 2 && step.1.abs() < 2;
+        if to_line {
+            line_iterations += 1;
+            if converged || line_iterations > LINE_ITERATIONS {
+                break;
+            }
+        } else if small || converged {
+            line_iterations = 1;
         }
     }
     (alpha, u)
@@ -656,6 +681,9 @@ pub(crate) fn refine<const W: usize, const H: usize, const RW: usize, const N: u
 
 /// ICP iterations at most.
 const ICP_ITERATIONS: usize = 15;
+/// Point-to-line iterations at most, after the point-to-point ones have
+/// settled (steps below 1/8 cell and 0.06°).
+const LINE_ITERATIONS: usize = 3;
 
 
 /// Largest rotation one ICP step may make, Q16 radians (≈ 2.9°).
