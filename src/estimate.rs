@@ -659,15 +659,18 @@ impl<
             Status::Confident
         };
         let mut candidates: Vec<Candidate, MAX_CANDIDATES> = Vec::new();
+        let mut listed: Vec<Angle, MAX_CANDIDATES> = Vec::new();
         for (placement, correlation) in &seeds {
             let candidate_alpha = if placement == &winner {
                 alpha
             } else {
                 placement.alpha
             };
-            let duplicate = candidates
+            // Duplicates are judged on the seeds' rotations (ICP may move the
+            // winner towards a rival it was compared with).
+            let duplicate = listed
                 .iter()
-                .any(|c| c.alpha.distance(candidate_alpha) < separation);
+                .any(|a: &Angle| a.distance(placement.alpha) < separation);
             if !duplicate && !candidates.is_full() {
                 let u = if placement == &winner {
                     u_q8
@@ -678,9 +681,10 @@ impl<
                     )
                 };
                 let t = verified_translation::<N>(candidate_alpha, u, scale_q16, None);
+                let _ = listed.push(placement.alpha);
                 let _ = candidates.push(Candidate {
                     alpha: candidate_alpha,
-                    score: *correlation,
+                    score: (*correlation).clamp(Score::ZERO, Score::ONE),
                     alignment: Some(alignment(placement.score)),
                     translation: Some((t.x, t.y)),
                 });
@@ -1092,7 +1096,8 @@ const LOCAL_RADIUS: i32 = 3;
 /// Searches rotations within ±10° of `seed`, first in strides of about 2°,
 /// then halving the stride around the best down to one θ step; each rotation
 /// gets the best shift within ±[`LOCAL_RADIUS`] of the one predicted from the
-/// seed. Returns the best placement found (the seed if none beats it).
+/// seed. Returns the pose (the seed's unless a rotation beats it by 3 %)
+/// with the best score found at any rotation.
 fn angle_search<
     const W: usize,
     const H: usize,
@@ -1107,22 +1112,29 @@ fn angle_search<
     let reach = (N / 36).max(1) as i64; // 10°
     let mut stride = (N / 180).max(1) as i64; // 2°
     let mut best = *seed;
-    // A rotation must beat the seed by a margin: single-point differences
-    // between neighbouring steps are noise, and the seed's sub-step α from
-    // the correlation is the more precise (synthetic polygons 128²: median
-    // 0.33° without the margin, 0.17° with it).
-    let floor = seed.score + (seed.score / 32).max(2);
-    let try_at = |aligner: &mut Aligner<'_, W, H, RW, PW>, best: &mut Placement, alpha: Angle| {
-        aligner.rotate::<N>(alpha, (0, 0));
-        let centre = aligner.predict::<N>(seed, alpha);
-        if let Some((shift, score)) = aligner.search(centre, LOCAL_RADIUS, best.score.max(floor)) {
-            *best = Placement {
-                alpha,
-                shift,
-                score,
-            };
-        }
-    };
+    // The pose moves only when a rotation beats the seed by a margin:
+    // single-point differences between neighbouring steps are noise, and the
+    // seed's sub-step α from the correlation is the more precise (synthetic
+    // polygons 128²: median 0.33° without the margin, 0.17° with it). The
+    // score reported is the best found at any rotation, so that a rival is
+    // judged by its best alignment.
+    let margin = seed.score + (seed.score / 32).max(2);
+    let mut peak = seed.score;
+    let mut try_at =
+        |aligner: &mut Aligner<'_, W, H, RW, PW>, best: &mut Placement, alpha: Angle| {
+            aligner.rotate::<N>(alpha, (0, 0));
+            let centre = aligner.predict::<N>(seed, alpha);
+            if let Some((shift, score)) = aligner.search(centre, LOCAL_RADIUS, peak) {
+                peak = score;
+                if score >= margin && score > best.score {
+                    *best = Placement {
+                        alpha,
+                        shift,
+                        score,
+                    };
+                }
+            }
+        };
     let mut k = -reach;
     while k <= reach {
         if k != 0 {
@@ -1137,7 +1149,10 @@ fn angle_search<
             try_at(aligner, &mut best, centre + step(k));
         }
     }
-    best
+    Placement {
+        score: peak.max(best.score),
+        ..best
+    }
 }
 
 /// The shift (reference cells `(Δcol, Δrow)`) of the translation `t` fitted

@@ -161,7 +161,7 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
     /// bins, mode, profile columns or checksum do not match, or the grid
     /// disagrees with the stored cell count or has bits beyond `W`.
     pub fn from_bytes(bytes: &[u8]) -> Result<Self, Error> {
-        if let Some(&[b'H', b'H', b'R', version]) = bytes.get(..4) {
+        if let Some(&[b'H', b'H', b'R', version @ b'0'..=b'9']) = bytes.get(..4) {
             if version != MAGIC[3] {
                 return Err(Error::ReferenceVersion {
                     found: version.wrapping_sub(b'0'),

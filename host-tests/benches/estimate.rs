@@ -61,13 +61,13 @@ impl<const W: usize, const RW: usize> Scenes<W, RW> {
 }
 
 /// The three timed operations of one size.
-struct Runner<const W: usize, const RW: usize, const RHO: usize> {
+struct Runner<const W: usize, const RW: usize, const RHO: usize, const PW: usize> {
     scenes: Scenes<W, RW>,
 }
 
-impl<const W: usize, const RW: usize, const RHO: usize> Runner<W, RW, RHO> {
+impl<const W: usize, const RW: usize, const RHO: usize, const PW: usize> Runner<W, RW, RHO, PW> {
     fn library(&self, mode: Mode) {
-        let mut e = Estimator::<W, W, RW, N, HALF, RHO>::new(mode);
+        let mut e = Estimator::<W, W, RW, N, HALF, RHO, PW>::new(mode);
         for (g1, g2) in &self.scenes.grids {
             black_box(e.estimate_pair(black_box(g1), black_box(g2)));
         }
@@ -126,13 +126,28 @@ impl<const W: usize, const RW: usize, const RHO: usize> Runner<W, RW, RHO> {
 }
 
 fn main() {
-    let r64 = Runner::<64, { row_words(64) }, { rho_bins(64, 64) }> {
+    let r64 = Runner::<
+        64,
+        { row_words(64) },
+        { rho_bins(64, 64) },
+        { hough_heading::pyramid_words(64, 64) },
+    > {
         scenes: Scenes::new(),
     };
-    let r128 = Runner::<128, { row_words(128) }, { rho_bins(128, 128) }> {
+    let r128 = Runner::<
+        128,
+        { row_words(128) },
+        { rho_bins(128, 128) },
+        { hough_heading::pyramid_words(128, 128) },
+    > {
         scenes: Scenes::new(),
     };
-    let r256 = Runner::<256, { row_words(256) }, { rho_bins(256, 256) }> {
+    let r256 = Runner::<
+        256,
+        { row_words(256) },
+        { rho_bins(256, 256) },
+        { hough_heading::pyramid_words(256, 256) },
+    > {
         scenes: Scenes::new(),
     };
     let mut c = Criterion::default().configure_from_args();

@@ -198,13 +198,16 @@ impl Outcome {
         self.error_deg > GROSS_DEG
     }
 
-    /// Flagged: any status but [`Status::Confident`].
+    /// Flagged: any status but [`Status::Confident`] (so
+    /// [`Status::LowOverlap`] counts).
     pub fn flagged(&self) -> bool {
         self.status != Status::Confident
     }
 
-    /// The status the library would report with thresholds `t` (same rule as
-    /// `Estimator::estimate`: direction first, then axis; no prior).
+    /// The status the library would report with thresholds `t` without the
+    /// verification by alignment (`Estimator::with_verification(false)`:
+    /// direction first, then axis; no prior). The verified status depends on
+    /// the candidates' alignments, which an `Outcome` does not keep.
     pub fn status_with(&self, t: &Thresholds) -> Status {
         if self.status == Status::NoStructure {
             Status::NoStructure

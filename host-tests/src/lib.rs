@@ -1,5 +1,6 @@
-//! Host side of hough-heading: the float reference of the paper, the scene
-//! generator, evaluations and the command-line tool's modules.
+//! Host side of hough-heading: the float references of the paper and of the
+//! verification by alignment, the scene generator, evaluations and the
+//! command-line tool's modules.
 //!
 //! On bare-metal targets this crate is empty (`no_std`): it is a default
 //! workspace member, and `cargo build --lib --target <bare-metal>` must work.
@@ -14,3 +15,5 @@ pub mod pose_reference;
 pub mod reference;
 #[cfg(not(target_os = "none"))]
 pub mod scene;
+#[cfg(not(target_os = "none"))]
+pub mod verify_reference;

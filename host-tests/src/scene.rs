@@ -1089,8 +1089,11 @@ mod tests {
                     );
                     assert!(view.clipped_samples <= view.samples / 1000, "{name}");
                 }
-                // Same gaps in both views.
-                assert_eq!(pair.i1.missing_samples, pair.i2.missing_samples);
+                // Same gaps in both views, unless each view is occluded on
+                // its own (then only the shared gaps are common).
+                if damage.occluded_fraction == 0.0 {
+                    assert_eq!(pair.i1.missing_samples, pair.i2.missing_samples, "{name}");
+                }
             }
         }
     }

@@ -24,9 +24,9 @@
 //! `Confident`) and now hold; the README's "Guarantees" section sums them up.
 
 use hough_heading::{
-    half_turn_steps, max_votes_per_bin, rho_bins, row_words, vote_column, Accumulator, Angle,
-    Estimate, Estimator, Grid, Mode, PeakKind, Reference, Score, Signature, Status, Thresholds,
-    TrigTable,
+    half_turn_steps, max_votes_per_bin, pyramid_words, rho_bins, row_words, vote_column,
+    Accumulator, Angle, Estimate, Estimator, Grid, Mode, PeakKind, Reference, Score, Signature,
+    Status, Thresholds, TrigTable,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -222,12 +222,53 @@ fn check_invariants(e: &Estimate, what: &str) {
         "{what}: rival {e:?}"
     );
     for c in &e.candidates {
-        assert!(unit.contains(&c.score), "{what}: candidate {e:?}");
+        // KNOWN LIBRARY BUG: verified candidates carry the raw correlation
+        // of their peak as `score`, negative for anti-correlated peaks,
+        // against the documented range [0, 1]
+        // (`finding_verified_candidate_scores_are_in_unit_range` fails on
+        // it). Checked within [−1, 1] here until it is fixed.
+        let range = if c.alignment.is_some() {
+            -Score::ONE..=Score::ONE
+        } else {
+            unit.clone()
+        };
+        assert!(range.contains(&c.score), "{what}: candidate {e:?}");
+        assert!(
+            c.alignment.is_none_or(|a| unit.contains(&a)),
+            "{what}: alignment {e:?}"
+        );
     }
-    assert!(
-        e.candidates.windows(2).all(|w| w[0].score >= w[1].score),
-        "{what}: candidates unsorted {e:?}"
-    );
+    assert!(unit.contains(&e.overlap), "{what}: overlap {e:?}");
+    // Verified estimates carry an alignment on every candidate and are
+    // sorted by it; the others carry none and are sorted by score.
+    let verified = e.candidates.iter().any(|c| c.alignment.is_some());
+    if verified {
+        assert!(
+            e.candidates.iter().all(|c| c.alignment.is_some()),
+            "{what}: some alignments missing {e:?}"
+        );
+        assert!(
+            e.candidates
+                .windows(2)
+                .all(|w| w[0].alignment >= w[1].alignment),
+            "{what}: candidates unsorted by alignment {e:?}"
+        );
+    } else {
+        assert!(
+            e.candidates.windows(2).all(|w| w[0].score >= w[1].score),
+            "{what}: candidates unsorted {e:?}"
+        );
+        assert_eq!(
+            e.overlap,
+            Score::ZERO,
+            "{what}: overlap without verification"
+        );
+        assert_ne!(
+            e.status,
+            Status::LowOverlap,
+            "{what}: LowOverlap unverified"
+        );
+    }
     match e.status {
         Status::NoStructure => {
             assert_eq!(e.alpha, Angle::ZERO, "{what}");
@@ -243,6 +284,21 @@ fn check_invariants(e: &Estimate, what: &str) {
             );
         }
     }
+}
+
+/// Whether the verification by alignment ran as configured: on by default
+/// in improved mode, never in paper mode; every candidate of a verified
+/// estimate has an alignment, none of an unverified one.
+fn check_verified(e: &Estimate, verified: bool, what: &str) {
+    if e.status == Status::NoStructure {
+        return;
+    }
+    assert!(
+        e.candidates
+            .iter()
+            .all(|c| c.alignment.is_some() == verified),
+        "{what}: verified {verified} but {e:?}"
+    );
 }
 
 /// Distance in degrees between `a` and `truth` modulo `360 / order`.
@@ -266,6 +322,7 @@ fn scene_violations<
     const N: usize,
     const HALF: usize,
     const RHO: usize,
+    const PW: usize,
 >(
     scenes: &[Scene],
     modes: &[Mode],
@@ -278,10 +335,11 @@ fn scene_violations<
             let g2 = draw::<W, H, RW>(&scene.segs, alpha, t);
             for &mode in modes {
                 cases += 1;
-                let mut e = Estimator::<W, H, RW, N, HALF, RHO>::new(mode);
+                let mut e = Estimator::<W, H, RW, N, HALF, RHO, PW>::new(mode);
                 let r = e.estimate_pair(&g1, &g2);
                 let what = format!("{W}x{H}/{N} {mode:?} {} α={alpha}°", scene.name);
                 check_invariants(&r, &what);
+                check_verified(&r, mode == Mode::Improved, &what);
                 let describe = |r: &Estimate| {
                     format!(
                         "{what}: {:?} α={:.2}° margin {:.3} corr {:.3} rival {:.3}",
@@ -297,7 +355,28 @@ fn scene_violations<
                     Class::Symmetric { axis, centre } => {
                         let scale = 0.45 * W.min(H) as f64;
                         let flag = must_flag((centre.0 * scale, centre.1 * scale), RHO);
-                        if r.status == Status::Confident {
+                        // KNOWN: at axis-aligned rotations the middle one
+                        // of three evenly spaced lines rasterizes half a
+                        // cell off the centre, and the verification decides
+                        // the direction on that one-row offset
+                        // (`hand_checked.rs`,
+                        // `finding_three_walls_one_cell_from_symmetric_are_not_confident`,
+                        // fails on it). Without the verification the pair
+                        // must still be flagged.
+                        let known = scene.name == "three evenly spaced parallel lines"
+                            && alpha % 90.0 == 0.0
+                            && mode == Mode::Improved;
+                        if known && r.status == Status::Confident {
+                            let u = Estimator::<W, H, RW, N, HALF, RHO, PW>::new(mode)
+                                .with_verification(false)
+                                .estimate_pair(&g1, &g2);
+                            if u.status == Status::Confident {
+                                violations.push(format!(
+                                    "confident on a symmetric scene, unverified: {}",
+                                    describe(&u)
+                                ));
+                            }
+                        } else if r.status == Status::Confident {
                             if flag {
                                 violations.push(format!(
                                     "confident on a symmetric scene: {}",
@@ -340,6 +419,7 @@ fn no_structure<
     const N: usize,
     const HALF: usize,
     const RHO: usize,
+    const PW: usize,
 >() -> usize {
     let empty = Grid::<W, H, RW>::new();
     let full = Grid::<W, H, RW>::from_words([[u32::MAX; RW]; H]);
@@ -379,16 +459,16 @@ fn no_structure<
     for (name, a, b) in &pairs {
         for mode in [Mode::Paper, Mode::Improved] {
             cases += 1;
-            let mut e = Estimator::<W, H, RW, N, HALF, RHO>::new(mode);
+            let mut e = Estimator::<W, H, RW, N, HALF, RHO, PW>::new(mode);
             let r = e.estimate_pair(a, b);
             let what = format!("{W}x{H}/{N} {mode:?} {name}");
             check_invariants(&r, &what);
             assert_eq!(r.status, Status::NoStructure, "{what}: {r:?}");
             // The same through a stored reference.
             let reference = e.reference(a);
-            let mut bytes = vec![0u8; Reference::<W, H, HALF, RHO>::BYTES];
+            let mut bytes = vec![0u8; Reference::<W, H, RW, HALF, RHO>::BYTES];
             reference.to_bytes(&mut bytes).unwrap();
-            let back = Reference::<W, H, HALF, RHO>::from_bytes(&bytes).unwrap();
+            let back = Reference::<W, H, RW, HALF, RHO>::from_bytes(&bytes).unwrap();
             assert_eq!(back, reference, "{what}");
             assert_eq!(e.estimate(&back, b).status, Status::NoStructure, "{what}");
         }
@@ -401,7 +481,7 @@ fn no_structure<
     };
     for mode in [Mode::Paper, Mode::Improved] {
         cases += 1;
-        let mut e = Estimator::<W, H, RW, N, HALF, RHO>::new(mode).with_thresholds(t);
+        let mut e = Estimator::<W, H, RW, N, HALF, RHO, PW>::new(mode).with_thresholds(t);
         let r = e.estimate_pair(&empty, &empty);
         assert_eq!(r.status, Status::NoStructure, "{W}x{H}/{N} {mode:?} min 0");
     }
@@ -421,6 +501,7 @@ fn counters_at_bound<
     const N: usize,
     const HALF: usize,
     const RHO: usize,
+    const PW: usize,
 >() -> usize {
     let full = Grid::<W, H, RW>::from_words([[u32::MAX; RW]; H]);
     assert_eq!(full.occupied() as usize, W * H);
@@ -460,7 +541,7 @@ fn counters_at_bound<
         }
     }
     // Streamed signature equals the matrix one on the full grid.
-    let mut e = Estimator::<W, H, RW, N, HALF, RHO>::new(Mode::Improved);
+    let mut e = Estimator::<W, H, RW, N, HALF, RHO, PW>::new(Mode::Improved);
     let reference = e.reference(&full);
     assert_eq!(reference.signature(), &sig);
     assert_eq!(reference.occupied() as usize, W * H);
@@ -506,6 +587,7 @@ fn borders_and_noise<
     const N: usize,
     const HALF: usize,
     const RHO: usize,
+    const PW: usize,
 >(
     seed: u64,
     paper_too: bool,
@@ -606,10 +688,11 @@ fn borders_and_noise<
     for pair in &pairs {
         for mode in [Mode::Paper, Mode::Improved] {
             cases += 1;
-            let mut e = Estimator::<W, H, RW, N, HALF, RHO>::new(mode);
+            let mut e = Estimator::<W, H, RW, N, HALF, RHO, PW>::new(mode);
             let r = e.estimate_pair(&pair.first, &pair.second);
             let what = format!("{W}x{H}/{N} {mode:?} {}", pair.name);
             check_invariants(&r, &what);
+            check_verified(&r, mode == Mode::Improved, &what);
             if r.status != Status::Confident {
                 continue;
             }
@@ -642,19 +725,21 @@ fn configuration<
     const N: usize,
     const HALF: usize,
     const RHO: usize,
+    const PW: usize,
 >() -> (usize, Vec<String>) {
-    let mut cases = no_structure::<W, H, RW, N, HALF, RHO>();
-    cases += counters_at_bound::<W, H, RW, N, HALF, RHO>();
+    let mut cases = no_structure::<W, H, RW, N, HALF, RHO, PW>();
+    cases += counters_at_bound::<W, H, RW, N, HALF, RHO, PW>();
     let (c, mut violations) =
-        scene_violations::<W, H, RW, N, HALF, RHO>(&scenes(), &[Mode::Improved]);
+        scene_violations::<W, H, RW, N, HALF, RHO, PW>(&scenes(), &[Mode::Improved]);
     cases += c;
-    let (c, v) = borders_and_noise::<W, H, RW, N, HALF, RHO>((W * 7919 + H * 31 + N) as u64, false);
+    let (c, v) =
+        borders_and_noise::<W, H, RW, N, HALF, RHO, PW>((W * 7919 + H * 31 + N) as u64, false);
     cases += c;
     violations.extend(v);
     (cases, violations)
 }
 
-/// Calls `$f::<W, H, RW, N, HALF, RHO>` for one configuration.
+/// Calls `$f::<W, H, RW, N, HALF, RHO, PW>` for one configuration.
 macro_rules! config {
     ($f:ident, $w:expr, $h:expr, $n:expr $(, $arg:expr)*) => {
         $f::<
@@ -664,6 +749,7 @@ macro_rules! config {
             $n,
             { half_turn_steps($n) },
             { rho_bins($w, $h) },
+            { pyramid_words($w, $h) },
         >($($arg),*)
     };
 }
@@ -923,7 +1009,10 @@ fn matching_functions_on_degenerate_data() {
     assert_eq!((direct.score_q16, direct.shift_q16 >> 16), (1 << 16, 10));
 
     // The paper's score of identical and opposite maps.
-    let mut e = Estimator::<96, 64, 3, 180, 90, { rho_bins(96, 64) }>::new(Mode::Paper);
+    let mut e =
+        Estimator::<96, 64, 3, 180, 90, { rho_bins(96, 64) }, { pyramid_words(96, 64) }>::new(
+            Mode::Paper,
+        );
     let g = draw::<96, 64, 3>(&scenes()[5].segs, 0.0, (0.0, 0.0));
     let reference = e.reference(&g);
     let s = reference.signature();
@@ -997,14 +1086,16 @@ fn matching_functions_on_degenerate_data() {
 
 /// Stored references: a round trip for every scene, every truncation is
 /// `BufferTooSmall`, every single-bit change of the lowest or highest bit of
-/// any byte is rejected, and a reference of another configuration is
-/// refused.
+/// any byte is rejected (`ReferenceVersion` for the version byte,
+/// `InvalidReference` for the others), and a reference of another
+/// configuration is refused.
 #[test]
 fn reference_bytes_are_checked() {
     const HALF: usize = 90;
     const RHO: usize = rho_bins(96, 64);
-    type R = Reference<96, 64, HALF, RHO>;
-    let mut e = Estimator::<96, 64, 3, 180, HALF, RHO>::new(Mode::Improved);
+    type R = Reference<96, 64, 3, HALF, RHO>;
+    let mut e =
+        Estimator::<96, 64, 3, 180, HALF, RHO, { pyramid_words(96, 64) }>::new(Mode::Improved);
     let mut cases = 0;
     for scene in scenes() {
         let g = draw::<96, 64, 3>(&scene.segs, 0.0, (0.0, 0.0));
@@ -1028,25 +1119,41 @@ fn reference_bytes_are_checked() {
                 cases += 1;
                 let mut bad = bytes.clone();
                 bad[i] ^= flip;
-                assert_eq!(
-                    R::from_bytes(&bad),
-                    Err(hough_heading::Error::InvalidReference)
-                );
+                // Byte 3 is the format version ("HHR" + digit): a changed
+                // version is reported as such, before the checksum.
+                let expected = if i == 3 {
+                    hough_heading::Error::ReferenceVersion {
+                        found: bad[3].wrapping_sub(b'0'),
+                        expected: hough_heading::REFERENCE_FORMAT,
+                    }
+                } else {
+                    hough_heading::Error::InvalidReference
+                };
+                assert_eq!(R::from_bytes(&bad), Err(expected), "byte {i} ^ {flip:#x}");
             }
         }
     }
     // Another configuration's bytes (128²: other RHO and size).
-    let mut other = Estimator::<128, 128, 4, 180, 90, { rho_bins(128, 128) }>::new(Mode::Improved);
+    let mut other = Estimator::<
+        128,
+        128,
+        4,
+        180,
+        90,
+        { rho_bins(128, 128) },
+        { pyramid_words(128, 128) },
+    >::new(Mode::Improved);
     let g = draw::<128, 128, 4>(&scenes()[1].segs, 0.0, (0.0, 0.0));
     let r128 = other.reference(&g);
-    let mut bytes = vec![0u8; Reference::<128, 128, 90, { rho_bins(128, 128) }>::BYTES];
+    let mut bytes = vec![0u8; Reference::<128, 128, 4, 90, { rho_bins(128, 128) }>::BYTES];
     r128.to_bytes(&mut bytes).unwrap();
     assert_eq!(
         R::from_bytes(&bytes),
         Err(hough_heading::Error::InvalidReference)
     );
     // Another mode's reference is accepted: the kind travels with it.
-    let mut paper = Estimator::<96, 64, 3, 180, HALF, RHO>::new(Mode::Paper);
+    let mut paper =
+        Estimator::<96, 64, 3, 180, HALF, RHO, { pyramid_words(96, 64) }>::new(Mode::Paper);
     let g = draw::<96, 64, 3>(&scenes()[1].segs, 0.0, (0.0, 0.0));
     let mut bytes = vec![0u8; R::BYTES];
     paper.reference(&g).to_bytes(&mut bytes).unwrap();
@@ -1074,12 +1181,13 @@ fn symmetric_scenes_are_never_confident() {
         const N: usize,
         const HALF: usize,
         const RHO: usize,
+        const PW: usize,
     >() -> (usize, Vec<String>) {
         let mut all = scenes();
         all.extend(scenes_with_findings());
         let (mut cases, mut v) =
-            scene_violations::<W, H, RW, N, HALF, RHO>(&all, &[Mode::Improved]);
-        let (c, w) = borders_and_noise::<W, H, RW, N, HALF, RHO>(1, false);
+            scene_violations::<W, H, RW, N, HALF, RHO, PW>(&all, &[Mode::Improved]);
+        let (c, w) = borders_and_noise::<W, H, RW, N, HALF, RHO, PW>(1, false);
         cases += c;
         v.extend(w);
         (cases, v)
@@ -1134,7 +1242,10 @@ fn to_steps_q16_accepts_any_n() {
 /// `usize::MAX` (a panic in debug builds).
 #[test]
 fn paper_asymmetry_accepts_any_shift() {
-    let mut e = Estimator::<64, 64, 2, 128, 64, { rho_bins(64, 64) }>::new(Mode::Paper);
+    let mut e =
+        Estimator::<64, 64, 2, 128, 64, { rho_bins(64, 64) }, { pyramid_words(64, 64) }>::new(
+            Mode::Paper,
+        );
     let g = draw::<64, 64, 2>(&scenes()[5].segs, 0.0, (0.0, 0.0));
     let s = e.reference(&g).signature().clone();
     let _ = hough_heading::paper_asymmetry(&s, &s, usize::MAX);
@@ -1177,12 +1288,62 @@ fn extreme_thresholds_do_not_overflow() {
             max_shift_fraction: Score::from_num(1000),
             ..Thresholds::DEFAULT
         },
+        Thresholds {
+            alignment_ratio: Score::MAX,
+            ..Thresholds::DEFAULT
+        },
+        Thresholds {
+            alignment_ratio: Score::DELTA,
+            min_overlap: Score::MAX,
+            ..Thresholds::DEFAULT
+        },
+        Thresholds {
+            alignment_ratio: Score::MIN,
+            min_overlap: Score::MIN,
+            max_shift_fraction: Score::MIN,
+            ..Thresholds::DEFAULT
+        },
     ] {
-        let r = E::new(Mode::Improved)
-            .with_thresholds(t)
-            .estimate_pair(&g1, &g2);
-        check_invariants(&r, "extreme thresholds");
+        for verify in [false, true] {
+            let r = E::new(Mode::Improved)
+                .with_thresholds(t)
+                .with_verification(verify)
+                .estimate_pair(&g1, &g2);
+            check_invariants(&r, "extreme thresholds");
+            check_verified(&r, verify, "extreme thresholds");
+        }
     }
+}
+
+/// `Candidate::score` is documented in [0, 1] ("correlation × direction
+/// share"). FINDING (fails): with the verification, a candidate carries the
+/// raw Pearson correlation of its peak, negative for an anti-correlated
+/// peak (random noise against an image frame: down to −0.24 at 256²). The
+/// invariant checks of this file and of `fuzz_harness.rs` accept [−1, 1]
+/// for verified candidates until this is fixed.
+#[test]
+fn finding_verified_candidate_scores_are_in_unit_range() {
+    type E = hough_heading::estimator!(64, 64, 360);
+    let frame = grid_from::<64, 64, 2>(|c, r| c == 0 || r == 0 || c == 63 || r == 63);
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let mut negative = Vec::new();
+    for density in [0.0625, 0.125, 0.25, 0.5] {
+        for _ in 0..4 {
+            let mut noise = Grid::<64, 64, 2>::new();
+            for r in 0..64 {
+                for c in 0..64 {
+                    if rng.gen_bool(density) {
+                        noise.set(c, r).unwrap();
+                    }
+                }
+            }
+            let r = E::new(Mode::Improved).estimate_pair(&noise, &frame);
+            if r.candidates.iter().any(|c| c.score < Score::ZERO) {
+                negative.push(format!("noise {density}: {:?}", r.candidates));
+            }
+        }
+    }
+    assert!(negative.is_empty(), "{}", negative.join("\n"));
 }
 
 // F8 (no bound on HALF in `Correlation::of`) is now a compile-time error:
@@ -1192,13 +1353,16 @@ fn extreme_thresholds_do_not_overflow() {
 /// is refused by a 96×64 estimator although both have `RHO` = 128.
 #[test]
 fn reference_bytes_record_the_grid_size() {
-    let mut e64 = Estimator::<64, 64, 2, 180, 90, { rho_bins(64, 64) }>::new(Mode::Improved);
+    let mut e64 =
+        Estimator::<64, 64, 2, 180, 90, { rho_bins(64, 64) }, { pyramid_words(64, 64) }>::new(
+            Mode::Improved,
+        );
     let g = draw::<64, 64, 2>(&scenes()[1].segs, 0.0, (0.0, 0.0));
-    let mut bytes = vec![0u8; Reference::<64, 64, 90, 128>::BYTES];
+    let mut bytes = vec![0u8; Reference::<64, 64, 2, 90, 128>::BYTES];
     e64.reference(&g).to_bytes(&mut bytes).unwrap();
     assert_eq!(rho_bins(96, 64), rho_bins(64, 64));
     // Read back as the 96×64 estimator's reference type: should be refused.
-    assert!(Reference::<96, 64, 90, { rho_bins(96, 64) }>::from_bytes(&bytes).is_err());
+    assert!(Reference::<96, 64, 3, 90, { rho_bins(96, 64) }>::from_bytes(&bytes).is_err());
 }
 
 /// `Raster::connect` with a tiny cell and a huge gap: the step count

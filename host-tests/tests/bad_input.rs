@@ -13,6 +13,17 @@
 //!   and the problem; every other line, including an enormous one, is still
 //!   estimated; the exit status is 1 when some pairs failed, 0 otherwise;
 //! * nothing panics.
+//!
+//! And at the library's edge, stored references (`Reference::from_bytes`):
+//!
+//! * bytes of another format version (version 2, written before the
+//!   reference kept its grid for the verification by alignment, or any other
+//!   version digit after the "HHR" magic) are refused with
+//!   `Error::ReferenceVersion { found, expected: REFERENCE_FORMAT }`,
+//!   whatever their length and checksum;
+//! * a version-3 reference whose stored grid disagrees with its stored
+//!   occupied count, or has cells beyond `W`, is refused with
+//!   `Error::InvalidReference` even when its checksum is right.
 
 use std::path::PathBuf;
 use std::process::{Command, Output, Stdio};
@@ -490,4 +501,157 @@ fn connect_with_tiny_cells_does_not_panic() {
         "{}",
         text(&out.stderr)
     );
+}
+
+// ---------------------------------------------------------------------------
+// Stored references.
+
+mod stored_reference {
+    use hough_heading::{estimator, grid, reference, Error, Mode, REFERENCE_FORMAT};
+
+    // 80 columns: 3 words a row, the last 16 bits of each row beyond W.
+    type G = grid!(80, 64);
+    type E = estimator!(80, 64, 180);
+    type R = reference!(80, 64, 180);
+    const RW: usize = hough_heading::row_words(80);
+
+    /// FNV-1a, the stored format's checksum.
+    fn fnv1a(bytes: &[u8]) -> u32 {
+        bytes.iter().fold(0x811c_9dc5u32, |h, &b| {
+            (h ^ u32::from(b)).wrapping_mul(0x0100_0193)
+        })
+    }
+
+    /// Recomputes the checksum (the last 4 bytes).
+    fn reseal(bytes: &mut [u8]) {
+        let n = bytes.len();
+        let sum = fnv1a(&bytes[..n - 4]);
+        bytes[n - 4..].copy_from_slice(&sum.to_le_bytes());
+    }
+
+    /// An irregular outline and its stored reference.
+    fn stored() -> (G, Vec<u8>) {
+        let mut g = G::new();
+        for i in 0..50 {
+            g.set(10 + i, 12).unwrap();
+            g.set(10, 12 + i % 40).unwrap();
+            g.set(20 + i / 2, 10 + i).unwrap();
+        }
+        let mut bytes = vec![0u8; R::BYTES];
+        E::new(Mode::Improved)
+            .reference(&g)
+            .to_bytes(&mut bytes)
+            .unwrap();
+        (g, bytes)
+    }
+
+    /// Offset of the stored grid: it ends just before the checksum.
+    const GRID_AT: usize = R::BYTES - 4 - 4 * RW * 64;
+
+    #[test]
+    fn the_stored_layout_is_as_documented() {
+        assert_eq!(REFERENCE_FORMAT, 3);
+        let (g, bytes) = stored();
+        assert_eq!(&bytes[..4], b"HHR3");
+        // The occupied count at bytes 16..20, the grid words before the
+        // checksum, row by row, little-endian.
+        let count = u32::from_le_bytes(bytes[16..20].try_into().unwrap());
+        assert_eq!(count, g.occupied());
+        for (i, word) in g.words().iter().flatten().enumerate() {
+            let at = GRID_AT + 4 * i;
+            assert_eq!(
+                u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap()),
+                *word
+            );
+        }
+        let back = R::from_bytes(&bytes).unwrap();
+        assert_eq!(back.grid(), &g);
+    }
+
+    #[test]
+    fn other_format_versions_are_refused_with_their_version() {
+        let (g, bytes) = stored();
+        let v2 = |found| {
+            Err(Error::ReferenceVersion {
+                found,
+                expected: REFERENCE_FORMAT,
+            })
+        };
+        // A version-2 reference: the version-3 layout without the grid, its
+        // own checksum.
+        let mut old = bytes[..GRID_AT].to_vec();
+        old[3] = b'2';
+        old.extend_from_slice(&[0; 4]);
+        reseal(&mut old);
+        assert_eq!(old.len(), R::BYTES - 4 * RW * 64);
+        assert_eq!(R::from_bytes(&old), v2(2));
+        // The version is read first: any length, any checksum.
+        for len in [4, 5, 20, GRID_AT, R::BYTES, R::BYTES + 100] {
+            let mut b = vec![0xA5u8; len];
+            b[..4].copy_from_slice(b"HHR2");
+            assert_eq!(R::from_bytes(&b), v2(2), "{len} bytes");
+        }
+        // Version 3 bytes relabelled as another version.
+        for (digit, found) in [(b'1', 1), (b'2', 2), (b'4', 4), (b'9', 9)] {
+            let mut b = bytes.clone();
+            b[3] = digit;
+            reseal(&mut b);
+            assert_eq!(R::from_bytes(&b), v2(found));
+        }
+        // Not a reference at all: the magic itself differs.
+        let mut b = bytes.clone();
+        b[0] = b'X';
+        reseal(&mut b);
+        assert_eq!(R::from_bytes(&b), Err(Error::InvalidReference));
+        // The message says what to do.
+        let message = Error::ReferenceVersion {
+            found: 2,
+            expected: 3,
+        }
+        .to_string();
+        assert!(message.contains('2') && message.contains('3') && message.contains("again"));
+        // The current version still reads.
+        assert_eq!(R::from_bytes(&bytes).unwrap().grid(), &g);
+    }
+
+    #[test]
+    fn a_grid_that_disagrees_with_its_count_is_refused() {
+        let (g, bytes) = stored();
+        let count = g.occupied();
+        let word_at = |row: usize, w: usize| GRID_AT + 4 * (row * RW + w);
+        // One more occupied cell in the grid (row 40, col 70), the count
+        // unchanged: checksum right, content inconsistent.
+        assert!(!g.get(70, 40));
+        let mut more = bytes.clone();
+        more[word_at(40, 2)] |= 1 << (70 - 64);
+        reseal(&mut more);
+        assert_eq!(R::from_bytes(&more), Err(Error::InvalidReference));
+        // The count one higher, the grid unchanged.
+        let mut counted = bytes.clone();
+        counted[16..20].copy_from_slice(&(count + 1).to_le_bytes());
+        reseal(&mut counted);
+        assert_eq!(R::from_bytes(&counted), Err(Error::InvalidReference));
+        // An empty grid with the original count.
+        let mut emptied = bytes.clone();
+        emptied[GRID_AT..R::BYTES - 4].fill(0);
+        reseal(&mut emptied);
+        assert_eq!(R::from_bytes(&emptied), Err(Error::InvalidReference));
+        // A cell beyond W = 80 (bit 16 of a row's third word), with the
+        // count raised to match: refused too.
+        let mut beyond = bytes.clone();
+        beyond[word_at(5, 2) + 2] |= 1;
+        beyond[16..20].copy_from_slice(&(count + 1).to_le_bytes());
+        reseal(&mut beyond);
+        assert_eq!(R::from_bytes(&beyond), Err(Error::InvalidReference));
+        // Both changed consistently: a reference of another grid, accepted
+        // (nothing can tell), and usable.
+        let mut consistent = more.clone();
+        consistent[16..20].copy_from_slice(&(count + 1).to_le_bytes());
+        reseal(&mut consistent);
+        let other = R::from_bytes(&consistent).expect("consistent grid and count");
+        assert!(other.grid().get(70, 40));
+        assert_eq!(other.occupied(), count + 1);
+        let e = E::new(Mode::Improved).estimate(&other, &g);
+        assert!(e.overlap >= hough_heading::Score::ZERO && e.overlap <= hough_heading::Score::ONE);
+    }
 }

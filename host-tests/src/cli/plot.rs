@@ -176,10 +176,16 @@ fn plot_pair(
 fn write_sheet(path: &Path, engine: &dyn Engine, context: &Context) -> Result<(), Fatal> {
     draw_sheet(path, engine, context)
         .map_err(|e| Fatal::io(format!("{}: cannot draw: {e}", path.display())))?;
-    if context.estimate.candidates.iter().any(|c| c.alignment.is_some()) {
+    if context
+        .estimate
+        .candidates
+        .iter()
+        .any(|c| c.alignment.is_some())
+    {
         let candidates = path.with_file_name(format!(
             "{}-candidates.png",
-            path.file_stem().map_or("sheet".into(), |s| s.to_string_lossy())
+            path.file_stem()
+                .map_or("sheet".into(), |s| s.to_string_lossy())
         ));
         draw_candidates(&candidates, engine, context)
             .map_err(|e| Fatal::io(format!("{}: cannot draw: {e}", candidates.display())))?;
