@@ -12,7 +12,7 @@
 //!   `k = min(n, m)` are kept, the `j`-th (`j = 0..k`) being the one of
 //!   raster index `⌈(j + 1)·n / k⌉ − 1` — the last cell of the `j`-th of `k`
 //!   equal slices of the raster sequence. `m` = [`points_for`]`(W, H)`:
-//!   `max(W, H) / 2` within 32 ..= [`ALIGN_POINTS`] (the library's
+//!   `max(W, H) / 2` within 64 ..= [`ALIGN_POINTS`] (the library's
 //!   `align_points`).
 //! - A pose `(α, u)` maps a point `p₂` of image 2 into the reference image
 //!   as `p₁ = R(−α)·p₂ + u`, and the point lands on the reference cell
@@ -44,10 +44,10 @@ use crate::reference::Image;
 pub const ALIGN_POINTS: usize = 128;
 
 /// Points of image 2 scored on a `width × height` grid: `max(w, h) / 2`,
-/// at least 32 and at most [`ALIGN_POINTS`] (about one per two cells of a
+/// at least 64 and at most [`ALIGN_POINTS`] (about one per two cells of a
 /// wall across the grid).
 pub fn points_for(width: usize, height: usize) -> usize {
-    (width.max(height) / 2).clamp(32, ALIGN_POINTS)
+    (width.max(height) / 2).clamp(64, ALIGN_POINTS)
 }
 
 /// Default share of the view that must lie within one cell of the reference

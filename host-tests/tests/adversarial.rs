@@ -1120,8 +1120,9 @@ fn reference_bytes_are_checked() {
                 let mut bad = bytes.clone();
                 bad[i] ^= flip;
                 // Byte 3 is the format version ("HHR" + digit): a changed
-                // version is reported as such, before the checksum.
-                let expected = if i == 3 {
+                // digit is reported as another version, before the checksum;
+                // a byte that is no digit is not a version at all.
+                let expected = if i == 3 && bad[3].is_ascii_digit() {
                     hough_heading::Error::ReferenceVersion {
                         found: bad[3].wrapping_sub(b'0'),
                         expected: hough_heading::REFERENCE_FORMAT,

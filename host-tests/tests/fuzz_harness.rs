@@ -662,7 +662,7 @@ fn fuzz_reference_versions_and_hostile_grids() {
         5000,
         70,
         (
-            any::<u8>().prop_filter("another version", |&d| d != b'0' + expected),
+            (b'0'..=b'9').prop_filter("another version", |&d| d != b'0' + expected),
             proptest::collection::vec(any::<u8>(), 0..R::BYTES + 64),
         ),
         |(digit, rest)| {
