@@ -464,7 +464,7 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
         let mut floor = floor;
         let last = (origin.0 + span - 1, origin.1 + span - 1);
         // Highest bound first.
-        crate::estimate::sort_descending(&mut tops, |t| t.0);
+        sort_descending(&mut tops, |t| t.0);
         let mut stack: heapless::Vec<(usize, i32, i32, u32), STACK> = heapless::Vec::new();
         for &(b, c0, r0) in &tops {
             if b <= floor {
@@ -914,6 +914,18 @@ impl PairSums {
             my - ((sd * qx + cd * qy) >> 16),
         );
         Some((delta, step))
+    }
+}
+
+/// Sorts `items` by `key`, largest first (insertion sort: a few items, and
+/// no panic path, unlike `sort_unstable_by`'s order-violation check).
+pub(crate) fn sort_descending<T: Copy>(items: &mut [T], key: impl Fn(&T) -> u32) {
+    for i in 1..items.len() {
+        let mut j = i;
+        while j > 0 && key(&items[j - 1]) < key(&items[j]) {
+            items.swap(j - 1, j);
+            j -= 1;
+        }
     }
 }
 

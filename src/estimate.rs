@@ -2,7 +2,7 @@
 //! reference, with status, confidence and candidates.
 
 use crate::accumulator::{vote_column_split, Column, UNIT_SCALE_Q16};
-use crate::align::{self, Aligner, Placement, Pyramid};
+use crate::align::{self, sort_descending, Aligner, Placement, Pyramid};
 use crate::correlation::circular_distance;
 use crate::correlation::{Correlation, Peak};
 use crate::direction::{match_curve, match_profile, paper_asymmetry, MatchCurve, ProfileMatch};
@@ -436,27 +436,10 @@ impl<
             HalfTurn::Flipped => alpha_best + Angle::HALF_TURN,
         };
         let mut alpha = chosen_alpha;
-        if let Some(prior) = prior {
-            let gate = Angle(prior.sigma.0.saturating_mul(3));
-            let mut near = candidates
-                .iter()
-                .filter(|c| c.alpha.distance(prior.alpha) <= gate);
-            if let Some(first) = near.next() {
-                let nearest = near.fold(first, |a, c| {
-                    if c.alpha.distance(prior.alpha) < a.alpha.distance(prior.alpha) {
-                        c
-                    } else {
-                        a
-                    }
-                });
-                alpha = nearest.alpha;
-                let others = candidates
-                    .iter()
-                    .filter(|c| c.alpha.distance(prior.alpha) <= gate)
-                    .count();
-                if others == 1 {
-                    status = Status::Confident;
-                }
+        if let Some((picked, alone)) = prior.and_then(|p| pick_with_prior(&candidates, p)) {
+            alpha = picked;
+            if alone {
+                status = Status::Confident;
             }
         }
         let confidence = confidence(best_score, rival_score, margin, &self.thresholds);
@@ -1245,18 +1228,6 @@ fn verified_confidence(overlap: Score, lead: Score, t: &Thresholds) -> Score {
         Score::ZERO
     };
     overlap.clamp(Score::ZERO, one) * ramp(lead, needed) * ramp(overlap, t.min_overlap)
-}
-
-/// Sorts `items` by `key`, largest first (insertion sort: a few items, and
-/// no panic path, unlike `sort_unstable_by`'s order-violation check).
-pub(crate) fn sort_descending<T: Copy>(items: &mut [T], key: impl Fn(&T) -> u32) {
-    for i in 1..items.len() {
-        let mut j = i;
-        while j > 0 && key(&items[j - 1]) < key(&items[j]) {
-            items.swap(j - 1, j);
-            j -= 1;
-        }
-    }
 }
 
 #[cfg(test)]
