@@ -320,9 +320,11 @@ fn estimator_on_grids<
     );
 }
 
-macro_rules! config {
-    ($w:expr, $h:expr, $n:expr) => {
-        estimator_on_grids::<
+/// `f` instantiated for a `W × H` grid and `N` θ steps, with the derived
+/// sizes (`RW`, `HALF`, `RHO`, `PW`) filled in.
+macro_rules! sized {
+    ($f:ident, $w:expr, $h:expr, $n:expr) => {
+        $f::<
             $w,
             $h,
             { row_words($w) },
@@ -336,11 +338,11 @@ macro_rules! config {
 
 #[test]
 fn fuzz_estimator_on_arbitrary_grids() {
-    config!(64, 64, 128)(1000, 1000, 1);
-    config!(128, 128, 360)(150, 300, 2);
-    config!(96, 64, 180)(250, 400, 3);
-    config!(160, 90, 512)(80, 150, 4);
-    config!(256, 256, 720)(15, 40, 5);
+    sized!(estimator_on_grids, 64, 64, 128)(1000, 1000, 1);
+    sized!(estimator_on_grids, 128, 128, 360)(150, 300, 2);
+    sized!(estimator_on_grids, 96, 64, 180)(250, 400, 3);
+    sized!(estimator_on_grids, 160, 90, 512)(80, 150, 4);
+    sized!(estimator_on_grids, 256, 256, 720)(15, 40, 5);
 }
 
 /// FNV-1a, the checksum of the stored reference format.
@@ -626,26 +628,12 @@ fn verification_on_hostile_grids<
     );
 }
 
-macro_rules! hostile {
-    ($w:expr, $h:expr, $n:expr) => {
-        verification_on_hostile_grids::<
-            $w,
-            $h,
-            { row_words($w) },
-            $n,
-            { hough_heading::half_turn_steps($n) },
-            { rho_bins($w, $h) },
-            { hough_heading::pyramid_words($w, $h) },
-        >
-    };
-}
-
 #[test]
 fn fuzz_verification_on_hostile_grids() {
-    hostile!(64, 64, 128)(1200, 60);
-    hostile!(80, 64, 180)(800, 61);
-    hostile!(128, 128, 360)(240, 62);
-    hostile!(160, 90, 512)(120, 63);
+    sized!(verification_on_hostile_grids, 64, 64, 128)(1200, 60);
+    sized!(verification_on_hostile_grids, 80, 64, 180)(800, 61);
+    sized!(verification_on_hostile_grids, 128, 128, 360)(240, 62);
+    sized!(verification_on_hostile_grids, 160, 90, 512)(120, 63);
 }
 
 /// Stored references of another format version, and version-3 references
