@@ -9,6 +9,7 @@
 pub mod demo;
 pub mod engine;
 pub mod images;
+pub mod mcu;
 pub mod plot;
 pub mod scans;
 pub mod summary;
@@ -67,6 +68,8 @@ pub enum Command {
     Demo(DemoArgs),
     /// PNG figures: grids, accumulators, signatures, correlation, asymmetry.
     Plot(PlotArgs),
+    /// Scan pairs for the firmware (`export`), and its results checked (`check`).
+    Mcu(mcu::McuArgs),
 }
 
 /// Which pipeline.
@@ -396,6 +399,7 @@ pub fn run(cli: &Cli) -> Result<usize, Fatal> {
         Command::Scans(args) => scans_command(args),
         Command::Demo(args) => demo::run(args).map(|()| 0),
         Command::Plot(args) => plot::run(args).map(|()| 0),
+        Command::Mcu(args) => mcu::run(args),
     }
 }
 
