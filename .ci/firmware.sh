@@ -50,6 +50,20 @@ for target in "${ARM_TARGETS[@]}"; do
     done
 done
 
+# Real scan pairs (issue 16): examples/real_scans.rs estimates the bundled
+# pairs on each core; the host tool must find every result line identical.
+section "real scan pairs on the MCUs, compared with the host"
+cargo build --release --bin hough-heading
+mkdir -p target/real-scans
+logs=()
+for target in "${ARM_TARGETS[@]}"; do
+    log="target/real-scans/${MACHINES[$target]}.log"
+    "$budgets" run --machine "${MACHINES[$target]}" --timeout 120 \
+        "$target_dir/$target/release/examples/real_scans" >"$log" || { cat "$log"; exit 1; }
+    logs+=("$log")
+done
+"$target_dir/release/hough-heading" mcu check host-tests/data/real-pairs.bin "${logs[@]}"
+
 section "examples build for riscv32imac-unknown-none-elf"
 cargo build --release --examples --target riscv32imac-unknown-none-elf
 
