@@ -11,7 +11,9 @@
 //! does) and QEMU's standard error, and exits with the firmware's exit status
 //! (124 on timeout).
 //!
-//! `report` builds `examples/bench.rs` for every target and configuration,
+//! `report` builds `examples/bench.rs` for every target and configuration
+//! (and `examples/real_scans.rs`, run on the bundled real scan pairs: see
+//! `real.rs`),
 //! runs it under QEMU with the `qemu-icount` plugin, prints the budget table
 //! and writes `budgets/budgets.json` and `budgets/TABLE.md`, and the table
 //! into `README.md` between `<!-- budgets:start -->` and
@@ -31,6 +33,7 @@
 mod elf;
 mod profile;
 mod qemu;
+mod real;
 mod report;
 
 use std::path::{Path, PathBuf};
@@ -273,6 +276,16 @@ fn table_page(table: &str) -> String {
          - *static RAM*: `.data + .bss` of the whole firmware (logger, runtime); the library has none. \
          *library flash*: flash of the firmware minus the same firmware built without calling the \
          library (`HH_BENCH_BASELINE=1`) minus the two grids.\n\
+         - Real-scan table: `examples/real_scans.rs` on the 120 real scan pairs of \
+         `host-tests/data/real-pairs.bin` (FLIRT fr079, 360 beams, and Intel, 180 beams), at 128², \
+         N_θ = 360, as `hough-heading scans --size 128` does (window = p90 of the ranges, segments \
+         up to 0.3 m, verification on); `.ci/firmware.sh` checks that every result is the host's, \
+         bit for bit (`hough-heading mcu check`). *instr. / pair*: the window (`Raster::auto` over \
+         both scans), rasterizing both scans, the reference and the estimate. *rasterize*: \
+         `Raster::rasterize` of one scan (software `f64` sine and cosine per beam, segments \
+         between neighbours), per beam and per scan. *RAM*: `.data + .bss` plus the lowest stack \
+         address written in any measured region below the top of the stack (estimator, reference, \
+         one grid, the ranges while a scan is read: all on the stack).\n\
          - Cortex-M4F runs on QEMU `mps2-an386`, Cortex-M0 on `microbit` (16 KiB RAM); RISC-V is only \
          built (sizes). Release profile: `opt-level = 3`, LTO, one codegen unit.\n"
     )

@@ -12,7 +12,7 @@ use std::time::Duration;
 use serde_json::{json, Map, Value};
 
 use crate::qemu::{self, field, number, Plugin};
-use crate::{elf, Error};
+use crate::{elf, real, Error};
 
 /// A target the budgets cover.
 pub struct Target {
@@ -59,7 +59,7 @@ const SIDES: [usize; 3] = [64, 128, 256];
 pub const TOLERANCE: f64 = 0.10;
 
 /// Budget keys `--check` compares (all "smaller is better").
-const CHECKED: [&str; 17] = [
+const CHECKED: [&str; 20] = [
     "instructions_estimate",
     "instructions_unverified",
     "instructions_verification",
@@ -77,6 +77,9 @@ const CHECKED: [&str; 17] = [
     "static_ram",
     "flash_library",
     "flash_total",
+    "real_pair_median",
+    "real_pair_max",
+    "real_ram",
 ];
 
 /// Measured regions of one bench run: overhead, reference, estimate, votes,
@@ -141,6 +144,17 @@ pub struct Paths {
 /// Builds the bench example for `target` and returns a copy of its ELF under
 /// `target/budgets/`.
 fn build(paths: &Paths, target: &Target, config: Option<&Config>) -> Result<PathBuf, Error> {
+    build_example(paths, target, "bench", config)
+}
+
+/// Builds `example` for `target` (the bench with `config`'s environment) and
+/// returns a copy of its ELF under `target/budgets/`.
+pub fn build_example(
+    paths: &Paths,
+    target: &Target,
+    example: &str,
+    config: Option<&Config>,
+) -> Result<PathBuf, Error> {
     let mut command = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
     command
         .current_dir(&paths.root)
@@ -149,11 +163,12 @@ fn build(paths: &Paths, target: &Target, config: Option<&Config>) -> Result<Path
             "-q",
             "--release",
             "--example",
-            "bench",
+            example,
             "--message-format=json",
         ])
         .args(["--target", target.triple]);
     let name = match config {
+        _ if example != "bench" => format!("{example}.elf"),
         Some(c) => {
             command
                 .env("HH_BENCH_SIDE", c.side.to_string())
@@ -169,7 +184,7 @@ fn build(paths: &Paths, target: &Target, config: Option<&Config>) -> Result<Path
     let output = command.output().map_err(|e| format!("run cargo: {e}"))?;
     if !output.status.success() {
         return Err(format!(
-            "cargo build of bench for {} failed:\n{}",
+            "cargo build of {example} for {} failed:\n{}",
             target.triple,
             String::from_utf8_lossy(&output.stderr)
         )
@@ -178,9 +193,9 @@ fn build(paths: &Paths, target: &Target, config: Option<&Config>) -> Result<Path
     let executable = String::from_utf8_lossy(&output.stdout)
         .lines()
         .filter_map(|line| serde_json::from_str::<Value>(line).ok())
-        .filter(|m| m["reason"] == "compiler-artifact" && m["target"]["name"] == "bench")
+        .filter(|m| m["reason"] == "compiler-artifact" && m["target"]["name"] == example)
         .find_map(|m| m["executable"].as_str().map(PathBuf::from))
-        .ok_or("cargo reported no bench executable")?;
+        .ok_or_else(|| format!("cargo reported no {example} executable"))?;
     let dir = paths.root.join("target/budgets").join(target.triple);
     std::fs::create_dir_all(&dir).map_err(|e| format!("create {}: {e}", dir.display()))?;
     let copy = dir.join(name);
@@ -395,6 +410,7 @@ pub fn measure(paths: &Paths, only: Option<&str>) -> Result<Measured, Error> {
     let mut failures = Vec::new();
     let mut rows = Vec::new();
     let mut verification_rows = Vec::new();
+    let mut real_rows = Vec::new();
     for target in &TARGETS {
         eprintln!("budgets: {} ({})", target.name, target.triple);
         let baseline = elf::read(&build(paths, target, None)?)?;
@@ -427,14 +443,31 @@ pub fn measure(paths: &Paths, only: Option<&str>) -> Result<Measured, Error> {
             }
             entries.insert(config.key(), Value::Object(values));
         }
+        // The real scan pairs (`examples/real_scans.rs`).
+        if target.machine.is_some() && only.is_none_or(|key| key == real::KEY) {
+            match real::measure(paths, target)? {
+                Ok(values) => {
+                    real_rows.push(real::row(target, &values));
+                    entries.insert(real::KEY.into(), Value::Object(values));
+                }
+                Err(failure) => {
+                    failures.push(format!("{} {}: {failure}", target.triple, real::KEY))
+                }
+            }
+        }
         targets.insert(target.triple.into(), Value::Object(entries));
     }
     Ok(Measured {
         targets,
         table: format!(
-            "{}\n{}",
+            "{}\n{}{}",
             table(&HEADER, &rows),
-            table(&VERIFICATION_HEADER, &verification_rows)
+            table(&VERIFICATION_HEADER, &verification_rows),
+            if real_rows.is_empty() {
+                String::new()
+            } else {
+                format!("\n{}", table(&real::HEADER, &real_rows))
+            }
         ),
         failures,
     })
@@ -489,7 +522,7 @@ fn row(target: &Target, config: &Config, v: &Map<String, Value>) -> Vec<String> 
 }
 
 /// Thousands separated by thin spaces.
-fn group(n: u64) -> String {
+pub fn group(n: u64) -> String {
     let digits = n.to_string();
     let mut out = String::new();
     for (i, c) in digits.chars().enumerate() {
