@@ -9,6 +9,7 @@
 pub mod demo;
 pub mod engine;
 pub mod images;
+pub mod log;
 pub mod plot;
 pub mod scans;
 pub mod summary;
@@ -67,6 +68,9 @@ pub enum Command {
     Demo(DemoArgs),
     /// PNG figures: grids, accumulators, signatures, correlation, asymmetry.
     Plot(PlotArgs),
+    /// Motion between the scans of a recording: a CARMEN log (`.gz` too) or
+    /// a ROS 2 bag (MCAP); one JSON line per scan pair.
+    Log(Box<log::LogArgs>),
 }
 
 /// Which pipeline.
@@ -396,6 +400,7 @@ pub fn run(cli: &Cli) -> Result<usize, Fatal> {
         Command::Scans(args) => scans_command(args),
         Command::Demo(args) => demo::run(args).map(|()| 0),
         Command::Plot(args) => plot::run(args).map(|()| 0),
+        Command::Log(args) => log::run(args),
     }
 }
 

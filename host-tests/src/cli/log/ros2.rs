@@ -1,0 +1,332 @@
+//! ROS 2 bags in MCAP: `sensor_msgs/msg/LaserScan` messages of one topic,
+//! and `nav_msgs/msg/Odometry` as the odometry.
+//!
+//! The container is read by the `mcap` crate's streaming reader (constant
+//! memory, chunks decompressed one at a time; zstd and lz4 chunks are
+//! supported); the messages' CDR payloads by the `cdr` crate through serde.
+//! Ranges follow REP 117: a value that is not finite, or below `range_min`,
+//! is no reading (dropped like a `null` of the pair files); a scan with no
+//! finite range at all is an error of its message.
+
+use std::collections::BTreeMap;
+use std::io::Read;
+
+use serde::Deserialize;
+
+use super::{Event, LogScan, Pose, RecordError};
+use crate::cli::scans::ScanRecord;
+use crate::cli::Fatal;
+
+/// The schema name of a laser scan.
+pub const LASER_SCAN: &str = "sensor_msgs/msg/LaserScan";
+/// The schema name of an odometry message.
+pub const ODOMETRY: &str = "nav_msgs/msg/Odometry";
+
+#[derive(Debug, Deserialize)]
+struct Time {
+    sec: i32,
+    nanosec: u32,
+}
+
+#[derive(Debug, Deserialize)]
+struct Header {
+    stamp: Time,
+    #[allow(dead_code)]
+    frame_id: String,
+}
+
+/// `sensor_msgs/msg/LaserScan`.
+#[derive(Debug, Deserialize)]
+struct LaserScanMsg {
+    header: Header,
+    angle_min: f32,
+    #[allow(dead_code)]
+    angle_max: f32,
+    angle_increment: f32,
+    #[allow(dead_code)]
+    time_increment: f32,
+    #[allow(dead_code)]
+    scan_time: f32,
+    range_min: f32,
+    range_max: f32,
+    ranges: Vec<f32>,
+    // `intensities` follows; not read.
+}
+
+#[derive(Debug, Deserialize)]
+struct Point {
+    x: f64,
+    y: f64,
+    #[allow(dead_code)]
+    z: f64,
+}
+
+#[derive(Debug, Deserialize)]
+struct Quaternion {
+    x: f64,
+    y: f64,
+    z: f64,
+    w: f64,
+}
+
+/// The start of `nav_msgs/msg/Odometry` (covariance and twist not read).
+#[derive(Debug, Deserialize)]
+struct OdometryMsg {
+    header: Header,
+    #[allow(dead_code)]
+    child_frame_id: String,
+    position: Point,
+    orientation: Quaternion,
+}
+
+impl Time {
+    fn seconds(&self) -> f64 {
+        f64::from(self.sec) + f64::from(self.nanosec) * 1e-9
+    }
+}
+
+/// Checks that the CDR string at `offset` (after the 4-byte encapsulation
+/// header) fits in the payload; returns the offset after it. (The `cdr`
+/// crate allocates a string's declared length before reading it, so a
+/// corrupt length must not reach it.)
+fn check_string(data: &[u8], offset: usize) -> Result<usize, String> {
+    let body = data.get(4..).ok_or("shorter than the CDR header")?;
+    let little = data.get(1).is_some_and(|b| b & 1 == 1);
+    let at = offset.next_multiple_of(4);
+    let bytes: [u8; 4] = body
+        .get(at..at + 4)
+        .and_then(|b| b.try_into().ok())
+        .ok_or("truncated")?;
+    let len = if little {
+        u32::from_le_bytes(bytes)
+    } else {
+        u32::from_be_bytes(bytes)
+    } as usize;
+    if len > body.len().saturating_sub(at + 4) {
+        return Err(format!(
+            "a string of {len} bytes does not fit in the message"
+        ));
+    }
+    Ok(at + 4 + len)
+}
+
+fn decode_scan(data: &[u8]) -> Result<(LogScan, f64), String> {
+    check_string(data, 8)?;
+    let msg: LaserScanMsg = cdr::deserialize(data).map_err(|e| format!("not a LaserScan: {e}"))?;
+    for (name, v) in [
+        ("angle_min", msg.angle_min),
+        ("angle_increment", msg.angle_increment),
+        ("range_max", msg.range_max),
+    ] {
+        if !v.is_finite() {
+            return Err(format!("{name} is {v}"));
+        }
+    }
+    if msg.ranges.is_empty() {
+        return Err("no ranges".into());
+    }
+    if !msg.ranges.iter().any(|r| r.is_finite()) {
+        return Err(format!(
+            "all {} ranges are NaN or infinite: nothing to estimate from",
+            msg.ranges.len()
+        ));
+    }
+    let range_min = if msg.range_min.is_finite() {
+        msg.range_min
+    } else {
+        0.0
+    };
+    let ranges = msg
+        .ranges
+        .iter()
+        .map(|&r| (r.is_finite() && r >= range_min).then_some(r))
+        .collect();
+    let time = msg.header.stamp.seconds();
+    Ok((
+        LogScan {
+            record: ScanRecord {
+                ranges,
+                angle_min: msg.angle_min,
+                angle_increment: msg.angle_increment,
+                max_range: msg.range_max,
+                laser_offset: [0.0; 3],
+            },
+            time: Some(time),
+            odom: None,
+            log_pose: None,
+            name: String::new(),
+        },
+        time,
+    ))
+}
+
+fn decode_odometry(data: &[u8]) -> Result<(Pose, f64), String> {
+    let after = check_string(data, 8)?;
+    check_string(data, after)?;
+    let msg: OdometryMsg =
+        cdr::deserialize(data).map_err(|e| format!("not an Odometry message: {e}"))?;
+    let q = &msg.orientation;
+    let theta = (2.0 * (q.w * q.z + q.x * q.y)).atan2(1.0 - 2.0 * (q.y * q.y + q.z * q.z));
+    let pose = Pose {
+        x: msg.position.x,
+        y: msg.position.y,
+        theta,
+    };
+    if !(pose.x.is_finite() && pose.y.is_finite() && pose.theta.is_finite()) {
+        return Err("pose is not finite".into());
+    }
+    Ok((pose, msg.header.stamp.seconds()))
+}
+
+/// One topic of a bag: its type and message count.
+#[derive(Clone, Debug, Default)]
+pub struct TopicInfo {
+    /// Schema name.
+    pub schema: String,
+    /// Messages.
+    pub count: usize,
+}
+
+/// Every topic with messages, by one streaming pass over the bag.
+///
+/// # Errors
+/// A [`Fatal`] error when the file is not a readable MCAP file.
+pub fn topics(input: impl Read, file: &str) -> Result<BTreeMap<String, TopicInfo>, Fatal> {
+    let mut topics: BTreeMap<String, TopicInfo> = BTreeMap::new();
+    for (i, message) in mcap::io::MessageReader::new(input).enumerate() {
+        let message = match message {
+            Ok(m) => m,
+            // A damaged file with readable messages first: the reading pass
+            // reports the damage as a failed record after them.
+            Err(_) if !topics.is_empty() => break,
+            Err(e) => {
+                return Err(Fatal::io(format!(
+                    "{file}: record after message {i}: not a readable MCAP file: {e}"
+                )))
+            }
+        };
+        let info = topics.entry(message.channel.topic.clone()).or_default();
+        info.schema = message
+            .channel
+            .schema
+            .as_ref()
+            .map_or_else(String::new, |s| s.name.clone());
+        info.count += 1;
+    }
+    Ok(topics)
+}
+
+/// The usage error for a missing or unknown `--topic`, listing the bag's topics.
+pub fn topic_error(file: &str, asked: Option<&str>, topics: &BTreeMap<String, TopicInfo>) -> Fatal {
+    let mut list: Vec<String> = topics
+        .iter()
+        .map(|(t, i)| format!("  {t}  ({}, {} messages)", i.schema, i.count))
+        .collect();
+    if list.is_empty() {
+        list.push("  (none)".into());
+    }
+    let head = match asked {
+        None => format!("{file}: choose the scan topic with --topic; the bag's topics:"),
+        Some(t) => format!("{file}: no messages on topic {t}; the bag's topics:"),
+    };
+    Fatal::usage(format!("{head}\n{}", list.join("\n")))
+}
+
+/// Streams the scans of `topic` and the odometry of `odom_topic` (if any).
+pub struct BagReader<R: Read> {
+    messages: mcap::io::MessageReader<R>,
+    file: String,
+    topic: String,
+    odom_topic: Option<String>,
+    count: usize,
+    checked: bool,
+    done: bool,
+}
+
+impl<R: Read> BagReader<R> {
+    /// A reader of `topic` (LaserScan) and `odom_topic` (Odometry).
+    pub fn new(input: R, file: &str, topic: &str, odom_topic: Option<&str>) -> Self {
+        Self {
+            messages: mcap::io::MessageReader::new(input),
+            file: file.into(),
+            topic: topic.into(),
+            odom_topic: odom_topic.map(Into::into),
+            count: 0,
+            checked: false,
+            done: false,
+        }
+    }
+}
+
+/// An item of a bag: an event, a message's error, or a fatal error.
+pub type BagItem = Result<Result<Event, RecordError>, Fatal>;
+
+impl<R: Read> Iterator for BagReader<R> {
+    type Item = BagItem;
+
+    fn next(&mut self) -> Option<BagItem> {
+        while !self.done {
+            let Some(message) = self.messages.next() else {
+                self.done = true;
+                break;
+            };
+            self.count += 1;
+            let record = format!("message {}", self.count);
+            let message = match message {
+                Ok(m) => m,
+                Err(e) => {
+                    self.done = true;
+                    let error = RecordError::new(
+                        format!("record after message {}", self.count - 1),
+                        format!("unreadable MCAP (truncated or corrupt file?): {e}"),
+                    );
+                    return Some(Ok(Err(error)));
+                }
+            };
+            let topic = message.channel.topic.as_str();
+            let is_scan = topic == self.topic;
+            let is_odom = self.odom_topic.as_deref() == Some(topic);
+            if !is_scan && !is_odom {
+                continue;
+            }
+            let schema = message
+                .channel
+                .schema
+                .as_ref()
+                .map_or("(no schema)", |s| s.name.as_str());
+            let expected = if is_scan { LASER_SCAN } else { ODOMETRY };
+            if schema != expected || message.channel.message_encoding != "cdr" {
+                let fatal = Fatal::io(format!(
+                    "{}: {record} on topic {topic} is {schema} ({} encoding); expected {expected} \
+                     (cdr encoding)",
+                    self.file, message.channel.message_encoding
+                ));
+                if is_scan && !self.checked {
+                    self.done = true;
+                    return Some(Err(fatal));
+                }
+                return Some(Ok(Err(RecordError::new(record, fatal.to_string()))));
+            }
+            let time = message.log_time as f64 * 1e-9;
+            if is_scan {
+                self.checked = true;
+                return Some(Ok(match decode_scan(&message.data) {
+                    Ok((mut scan, stamp)) => {
+                        // The header stamp, or the log time when it is unset.
+                        scan.time = Some(if stamp > 0.0 { stamp } else { time });
+                        Ok(Event::Scan(scan).with_record(format!("{record} (topic {topic})")))
+                    }
+                    Err(e) => Err(RecordError::new(format!("{record} (topic {topic})"), e)),
+                }));
+            }
+            return Some(Ok(match decode_odometry(&message.data) {
+                Ok((pose, stamp)) => Ok(Event::Odometry {
+                    time: Some(if stamp > 0.0 { stamp } else { time }),
+                    pose,
+                }),
+                Err(e) => Err(RecordError::new(format!("{record} (topic {topic})"), e)),
+            }));
+        }
+        None
+    }
+}
