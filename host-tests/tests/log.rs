@@ -453,3 +453,72 @@ fn bundled_pairs_are_verbatim_lines_of_the_shared_file() {
         assert!(shared.lines().any(|l| l == line));
     }
 }
+
+/// `ROBOTLASER1` lines (with their own field of view, resolution, maximum
+/// range and a laser offset given by the laser and robot poses) made from
+/// the first bundled pair (fr079: 360 beams, laser 4 cm behind the robot's
+/// centre) give the pair file's estimate, and the odometry delta is the
+/// robot poses' delta.
+#[test]
+fn robotlaser1_lines_give_the_pair_files_estimate() {
+    let pairs = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scans.jsonl");
+    let first = std::fs::read_to_string(&pairs).expect("scans.jsonl");
+    let first = first.lines().next().expect("a line");
+    let pair: Value = serde_json::from_str(first).expect("JSON");
+    let f = |v: &Value| v.as_f64().expect("a number");
+    let robot = [(1.5, -2.0, 0.4), {
+        // The robot pose of scan 2: scan 1's composed with the pair's truth.
+        let (c, s) = (0.4f64.cos(), 0.4f64.sin());
+        let (dx, dy) = (f(&pair["dx"]), f(&pair["dy"]));
+        (
+            1.5 + c * dx - s * dy,
+            -2.0 + s * dx + c * dy,
+            0.4 + f(&pair["dtheta"]),
+        )
+    }];
+    let mut log =
+        String::from("# ROBOTLASER1 excerpt\nPARAM robot_frontlaser_offset -0.04 host 0\n");
+    for (k, name) in ["scan1", "scan2"].iter().enumerate() {
+        let scan = &pair[name];
+        let n = scan["ranges"].as_array().expect("ranges").len();
+        let fov = f(&scan["angle_increment"]) * (n - 1) as f64;
+        let ranges: Vec<String> = scan["ranges"]
+            .as_array()
+            .expect("ranges")
+            .iter()
+            .map(|r| r.to_string())
+            .collect();
+        let (rx, ry, rt) = robot[k];
+        let off = &scan["laser_offset"];
+        let (ox, oy, ot) = (f(&off[0]), f(&off[1]), f(&off[2]));
+        let (lx, ly, lt) = (
+            rx + rt.cos() * ox - rt.sin() * oy,
+            ry + rt.sin() * ox + rt.cos() * oy,
+            rt + ot,
+        );
+        log.push_str(&format!(
+            "ROBOTLASER1 0 {} {fov} {} {} 0.01 0 {n} {} 0 {lx} {ly} {lt} {rx} {ry} {rt} 0 0 0 0 0 {} host {}\n",
+            scan["angle_min"],
+            scan["angle_increment"],
+            scan["max_range"],
+            ranges.join(" "),
+            scan["t"],
+            scan["t"],
+        ));
+    }
+    let path = scratch("robotlaser1.log");
+    std::fs::write(&path, log).expect("write");
+    let from_log = tool(&["log", "-q", &path.display().to_string()]);
+    assert_eq!(from_log.status.code(), Some(0), "{}", stderr(&from_log));
+    let line_file = scratch("robotlaser1.pairs.jsonl");
+    std::fs::write(&line_file, format!("{first}\n")).expect("write");
+    let from_pairs = tool(&["scans", "-q", &line_file.display().to_string()]);
+    let (a, b) = (json_lines(&from_log), json_lines(&from_pairs));
+    assert_eq!(a.len(), 1);
+    assert_eq!(estimate_fields(&a[0]), estimate_fields(&b[0]));
+    let odom = &a[0]["odom"];
+    assert!((f(&odom["dx_m"]) - f(&pair["dx"])).abs() < 1e-4, "{odom}");
+    assert!((f(&odom["dy_m"]) - f(&pair["dy"])).abs() < 1e-4, "{odom}");
+    assert!((f(&odom["dtheta_deg"]) - f(&pair["dtheta"]).to_degrees()).abs() < 1e-3);
+    assert!(a[0].get("log_pose").is_none());
+}
