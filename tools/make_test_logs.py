@@ -30,6 +30,11 @@ Run from the repository root:
 
     python3 tools/make_test_logs.py                  # the bundled excerpts
     python3 tools/make_test_logs.py --all /tmp/logs  # all 241 scans (not bundled)
+    python3 tools/make_test_logs.py --all /tmp/logs \
+        --pairs ../shared/data/orebro-corrected_pairs.jsonl  # 237 Örebro scans
+
+(`--all` follows the chain of consecutive pairs from scan 0 to its first
+gap; the CARMEN header comment names Seattle whatever the source.)
 """
 
 import argparse
@@ -181,7 +186,7 @@ def bag(scans, path, nan_scan=None):
         odometry = w.register_msgdef("nav_msgs/msg/Odometry", ODOMETRY)
         string = w.register_msgdef("std_msgs/msg/String", STRING)
         for i, (scan, _, (ox, oy, ot)) in enumerate(scans):
-            t = scan["t"]
+            t = scan["t"] if scan["t"] > 0 else float(i + 1)  # some logs lack times
             ns = int(round(t * 1e9))
             header = {"stamp": stamp(t), "frame_id": "laser"}
             n = len(scan["ranges"])
@@ -223,12 +228,13 @@ def main():
     a = ap.parse_args()
     if a.all:
         os.makedirs(a.all, exist_ok=True)
+        name = os.path.basename(a.pairs).split("-corrected")[0].split("_pairs")[0]
         scans, lines = chain(a.pairs, 0, 10**6)
-        with gzip.GzipFile(os.path.join(a.all, "seattle.log.gz"), "wb", mtime=0) as f:
+        with gzip.GzipFile(os.path.join(a.all, f"{name}.log.gz"), "wb", mtime=0) as f:
             f.write(carmen(scans).encode())
-        with open(os.path.join(a.all, "seattle.pairs.jsonl"), "w") as f:
+        with open(os.path.join(a.all, f"{name}.pairs.jsonl"), "w") as f:
             f.write("\n".join(lines) + "\n")
-        bag(scans, os.path.join(a.all, "seattle.mcap"))
+        bag(scans, os.path.join(a.all, f"{name}.mcap"))
         print(f"{len(scans)} scans to {a.all}", file=sys.stderr)
         return
     os.makedirs(OUT, exist_ok=True)
