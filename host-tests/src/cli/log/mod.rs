@@ -198,7 +198,8 @@ pub struct LogArgs {
     /// `--pairs reference`: the reference scan's index.
     #[arg(long, value_name = "INDEX", default_value_t = 0)]
     pub reference: usize,
-    /// `--pairs window`: pairs at most this many scans apart.
+    /// `--pairs window`: pairs at most this many used scans apart (with
+    /// `--every N`, N × this many scans of the recording).
     #[arg(long, value_name = "SCANS", default_value_t = 10)]
     pub window: usize,
     /// `--pairs window`: and at most this many seconds apart.

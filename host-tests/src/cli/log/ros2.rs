@@ -6,7 +6,10 @@
 //! supported); the messages' CDR payloads by the `cdr` crate through serde.
 //! Ranges follow REP 117: a value that is not finite, or below `range_min`,
 //! is no reading (dropped like a `null` of the pair files); a scan with no
-//! finite range at all is an error of its message.
+//! finite range at all is an error of its message. A scan's odometry is the
+//! last odometry message before it in the file (no interpolation), and its
+//! time the header stamp (the log time when the stamp is zero). The laser's
+//! offset on the robot is `--laser-offset` (`/tf_static` is not read).
 
 use std::collections::BTreeMap;
 use std::io::Read;
