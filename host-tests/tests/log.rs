@@ -302,6 +302,21 @@ fn a_wrong_message_type_is_an_error_naming_the_topic() {
         "{e}"
     );
     assert!(!e.contains("panicked"), "{e}");
+    let o = tool(&[
+        "log",
+        &data("seattle-bag.mcap"),
+        "--topic",
+        "/scan",
+        "--odom-topic",
+        "/chatter",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o)
+            .contains("topic /chatter carries std_msgs/msg/String, not nav_msgs/msg/Odometry"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]

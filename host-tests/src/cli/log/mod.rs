@@ -584,9 +584,19 @@ fn choose_topics(
         Some(t) if topics.contains_key(t) => t.clone(),
         other => return Err(ros2::topic_error(file, other.as_deref(), &topics)),
     };
+    // A scan topic of another type fails at its first message (named).
     let odom = match &args.odom_topic {
-        Some(t) if topics.contains_key(t) => Some(t.clone()),
-        Some(t) => return Err(ros2::topic_error(file, Some(t), &topics)),
+        Some(t) => match topics.get(t) {
+            Some(i) if i.schema == ros2::ODOMETRY => Some(t.clone()),
+            Some(i) => {
+                return Err(Fatal::usage(format!(
+                    "{file}: topic {t} carries {}, not {}",
+                    i.schema,
+                    ros2::ODOMETRY
+                )))
+            }
+            None => return Err(ros2::topic_error(file, Some(t), &topics)),
+        },
         None => topics
             .iter()
             .find(|(t, i)| t.as_str() == "/odom" && i.schema == ros2::ODOMETRY)
