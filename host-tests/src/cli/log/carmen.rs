@@ -242,7 +242,7 @@ fn robotlaser1(line: &Fields<'_>) -> Result<Event, String> {
     )?;
     let ranges = line.ranges(8, n)?;
     let m = line.count(n + 8, "number of remissions")?;
-    let poses = n + 9 + m;
+    let poses = (n + 9).saturating_add(m);
     line.need(
         poses.saturating_add(11),
         "remissions, laser pose, robot pose, tv rv forward_safety side_safety turn_axis",
@@ -330,6 +330,13 @@ mod tests {
         assert!(matches!(parse("PARAM robot_length 0.5"), Ok(None)));
         assert!(matches!(parse("   "), Ok(None)));
         assert!(parse("ODOM 1 2").is_err());
+        // A remission count beyond any length is an error, not an overflow.
+        let huge = format!(
+            "ROBOTLASER1 0 -1.5 3.1 0.5 30 0.01 0 1 1 {} 0 0 0",
+            usize::MAX
+        );
+        assert!(parse(&huge).unwrap_err().contains("too few fields"));
+        assert!(parse(&format!("FLASER {} 1 2", usize::MAX)).is_err());
     }
 
     #[test]

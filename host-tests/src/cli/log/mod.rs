@@ -659,7 +659,7 @@ fn stream(
             PairsArg::Window => {
                 let t2 = current.1.time;
                 kept.retain(|(i, s)| {
-                    index - i <= args.window * args.every
+                    index - i <= args.window.saturating_mul(args.every)
                         && match (args.window_s, s.time, t2) {
                             (Some(w), Some(a), Some(b)) => (b - a).abs() <= w,
                             _ => true,
