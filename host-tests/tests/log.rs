@@ -537,3 +537,74 @@ fn robotlaser1_lines_give_the_pair_files_estimate() {
     assert!((f(&odom["dtheta_deg"]) - f(&pair["dtheta"]).to_degrees()).abs() < 1e-3);
     assert!(a[0].get("log_pose").is_none());
 }
+
+/// Damaged recordings never panic the readers: every truncation of the bag
+/// (in steps) and single-byte corruptions throughout it, and CARMEN lines
+/// with fields dropped, duplicated or replaced, are read to the end in
+/// process (errors allowed, panics not).
+#[test]
+fn damaged_recordings_never_panic_the_readers() {
+    use host_tests::cli::log::carmen::{CarmenReader, FlaserGeometry};
+    use host_tests::cli::log::ros2::BagReader;
+
+    let bag = std::fs::read(logs().join("seattle-bag.mcap")).expect("bag");
+    let read_bag = |bytes: &[u8]| {
+        for topic in ["/scan", "/odom"] {
+            let reader = BagReader::new(bytes, "bag", topic, Some("/odom"));
+            for _ in reader.take(100) {}
+        }
+    };
+    for cut in (0..bag.len()).step_by(53) {
+        read_bag(&bag[..cut]);
+    }
+    // A deterministic spread of positions and byte values.
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    for _ in 0..400 {
+        let mut damaged = bag.clone();
+        let at = (next() % damaged.len() as u64) as usize;
+        damaged[at] = (next() & 0xff) as u8;
+        read_bag(&damaged);
+    }
+    let text = std::fs::read_to_string(logs().join("seattle-excerpt.log")).expect("log");
+    let geometry = FlaserGeometry {
+        max_range: 81.91,
+        laser_offset: [0.0; 3],
+    };
+    let samples = [
+        "",
+        "-1",
+        "nan",
+        "1e400",
+        "18446744073709551616",
+        "x",
+        "0",
+        "361",
+    ];
+    for (i, line) in text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| l.starts_with("FLASER"))
+    {
+        let fields: Vec<&str> = line.split(' ').collect();
+        for _ in 0..30 {
+            let mut f = fields.clone();
+            let at = (next() % f.len() as u64) as usize;
+            match next() % 3 {
+                0 => {
+                    f.remove(at);
+                }
+                1 => f.insert(at, f[at]),
+                _ => f[at] = samples[(next() % samples.len() as u64) as usize],
+            }
+            let damaged = f.join(" ");
+            let reader = CarmenReader::new(damaged.as_bytes(), geometry);
+            assert!(reader.count() <= 1, "line {i}");
+        }
+    }
+}

@@ -14,11 +14,25 @@
 use std::collections::BTreeMap;
 use std::io::Read;
 
+use mcap::sans_io::LinearReaderOptions;
 use serde::Deserialize;
 
 use super::{Event, LogScan, Pose, RecordError};
 use crate::cli::scans::ScanRecord;
 use crate::cli::Fatal;
+
+/// Largest MCAP record (and chunk, compressed or not) read, bytes: a
+/// corrupt length fails instead of allocating it.
+pub const RECORD_LIMIT: usize = 1 << 28;
+
+/// The bag's messages, streamed: chunk CRCs checked before a chunk's
+/// messages are used, record lengths bounded by [`RECORD_LIMIT`].
+fn messages<R: Read>(input: R) -> mcap::io::MessageReader<R> {
+    let options = LinearReaderOptions::default()
+        .with_prevalidate_chunk_crcs(true)
+        .with_record_length_limit(RECORD_LIMIT);
+    mcap::io::MessageReader::new_with_options(input, options)
+}
 
 /// The schema name of a laser scan.
 pub const LASER_SCAN: &str = "sensor_msgs/msg/LaserScan";
@@ -196,7 +210,7 @@ pub struct TopicInfo {
 /// A [`Fatal`] error when the file is not a readable MCAP file.
 pub fn topics(input: impl Read, file: &str) -> Result<BTreeMap<String, TopicInfo>, Fatal> {
     let mut topics: BTreeMap<String, TopicInfo> = BTreeMap::new();
-    for (i, message) in mcap::io::MessageReader::new(input).enumerate() {
+    for (i, message) in messages(input).enumerate() {
         let message = match message {
             Ok(m) => m,
             // A damaged file with readable messages first: the reading pass
@@ -250,7 +264,7 @@ impl<R: Read> BagReader<R> {
     /// A reader of `topic` (LaserScan) and `odom_topic` (Odometry).
     pub fn new(input: R, file: &str, topic: &str, odom_topic: Option<&str>) -> Self {
         Self {
-            messages: mcap::io::MessageReader::new(input),
+            messages: messages(input),
             file: file.into(),
             topic: topic.into(),
             odom_topic: odom_topic.map(Into::into),
@@ -331,5 +345,63 @@ impl<R: Read> Iterator for BagReader<R> {
             }));
         }
         None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const BAG: &[u8] = include_bytes!("../../../data/logs/seattle-bag.mcap");
+
+    fn payloads(topic: &str) -> Vec<Vec<u8>> {
+        messages(BAG)
+            .map(|m| m.expect("a readable bag"))
+            .filter(|m| m.channel.topic == topic)
+            .map(|m| m.data.into_owned())
+            .collect()
+    }
+
+    #[test]
+    fn the_bundled_payloads_decode() {
+        let scans = payloads("/scan");
+        assert_eq!(scans.len(), 12);
+        let (scan, time) = decode_scan(&scans[0]).expect("a scan");
+        assert_eq!(scan.record.ranges.len(), 361);
+        assert!(time > 1000.0);
+        let (pose, _) = decode_odometry(&payloads("/odom")[0]).expect("odometry");
+        assert!(pose.theta.is_finite());
+        // Each decoder refuses the other's message.
+        assert!(decode_scan(&payloads("/odom")[0]).is_err());
+    }
+
+    #[test]
+    fn damaged_payloads_are_errors_not_panics() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for data in payloads("/scan").iter().chain(&payloads("/odom")).take(4) {
+            for cut in 0..data.len().min(200) {
+                let _ = decode_scan(&data[..cut]);
+                let _ = decode_odometry(&data[..cut]);
+            }
+            for _ in 0..500 {
+                let mut d = data.clone();
+                for _ in 0..3 {
+                    let at = (next() % d.len() as u64) as usize;
+                    d[at] = (next() & 0xff) as u8;
+                }
+                let _ = decode_scan(&d);
+                let _ = decode_odometry(&d);
+            }
+        }
+        // A string length beyond the message is refused before decoding.
+        let mut d = payloads("/scan")[0].clone();
+        d[12..16].copy_from_slice(&u32::MAX.to_le_bytes());
+        assert!(decode_scan(&d).unwrap_err().contains("does not fit"));
     }
 }
