@@ -6,7 +6,8 @@
 
 use hough_heading::{
     half_turn_steps, pyramid_words, rho_bins, row_words, Accumulator, Correlation, Estimate,
-    Estimator, Grid, Mode, PeakKind, Raster, ScaleRange, Scan, ScanStats, Signature, Thresholds,
+    Estimator, Grid, Mode, PeakKind, Prior, Raster, ScaleRange, Scan, ScanStats, Signature,
+    Thresholds,
 };
 
 use crate::reference::Image;
@@ -71,7 +72,12 @@ pub trait Engine {
     /// The grid of `view` as an image.
     fn image(&self, view: View) -> Image;
     /// Rotation (and translation) of the second view relative to the first.
-    fn estimate(&mut self, mode: Mode) -> Estimate;
+    fn estimate(&mut self, mode: Mode) -> Estimate {
+        self.estimate_with_prior(mode, None)
+    }
+    /// Like [`Engine::estimate`], with an optional prior on α that picks
+    /// among the candidates (`Estimator::estimate_with_prior`).
+    fn estimate_with_prior(&mut self, mode: Mode, prior: Option<Prior>) -> Estimate;
     /// Accumulators, signatures and correlation of the two grids (for plots).
     fn figures(&self, mode: Mode) -> Figures;
 }
@@ -153,12 +159,15 @@ impl<
         image
     }
 
-    fn estimate(&mut self, mode: Mode) -> Estimate {
+    fn estimate_with_prior(&mut self, mode: Mode, prior: Option<Prior>) -> Estimate {
         let [first, second] = &self.grids;
-        match mode {
-            Mode::Improved => self.improved.estimate_pair(first, second),
-            Mode::Paper => self.paper.estimate_pair(first, second),
-        }
+        let estimator = match mode {
+            Mode::Improved => &mut self.improved,
+            Mode::Paper => &mut self.paper,
+        };
+        // `estimate_pair` is exactly this with no prior.
+        let reference = estimator.reference(first);
+        estimator.estimate_with_prior(&reference, second, prior)
     }
 
     fn figures(&self, mode: Mode) -> Figures {

@@ -10,6 +10,7 @@ pub mod demo;
 pub mod engine;
 pub mod images;
 pub mod mcu;
+pub mod log;
 pub mod plot;
 pub mod scans;
 pub mod summary;
@@ -70,6 +71,9 @@ pub enum Command {
     Plot(PlotArgs),
     /// Scan pairs for the firmware (`export`), and its results checked (`check`).
     Mcu(mcu::McuArgs),
+    /// Motion between the scans of a recording: a CARMEN log (`.gz` too) or
+    /// a ROS 2 bag (MCAP); one JSON line per scan pair.
+    Log(Box<log::LogArgs>),
 }
 
 /// Which pipeline.
@@ -400,6 +404,7 @@ pub fn run(cli: &Cli) -> Result<usize, Fatal> {
         Command::Demo(args) => demo::run(args).map(|()| 0),
         Command::Plot(args) => plot::run(args).map(|()| 0),
         Command::Mcu(args) => mcu::run(args),
+        Command::Log(args) => log::run(args),
     }
 }
 

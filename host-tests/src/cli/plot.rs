@@ -24,7 +24,7 @@ type Drawn = Result<(), Box<dyn Error>>;
 type Chart<'a, 'b> =
     ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
-const FONT: &str = "sans-serif";
+pub(crate) const FONT: &str = "sans-serif";
 const SHEET: (u32, u32) = (2000, 1500);
 /// Colours of view 1, view 2 and the ground-truth alignment.
 const C1: RGBColor = RGBColor(31, 119, 180);
@@ -32,7 +32,7 @@ const C2: RGBColor = RGBColor(214, 39, 40);
 const C_TRUTH: RGBColor = RGBColor(44, 160, 44);
 
 /// Registers the embedded DejaVu Sans as `sans-serif` (no system fonts).
-fn register_font() {
+pub(crate) fn register_font() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // The embedded font is a valid TTF; a failure only loses the text.

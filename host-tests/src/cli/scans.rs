@@ -5,7 +5,9 @@
 //! `dtheta`, `check.overlap_gt`) is read separately, and only for the
 //! summary.
 
-use hough_heading::{Estimate, HalfTurn, Mode, Raster, Scan, ScanStats, SensorOffset, Status};
+use hough_heading::{
+    Estimate, HalfTurn, Mode, Prior, Raster, Scan, ScanStats, SensorOffset, Status,
+};
 use serde::{Deserialize, Serialize};
 
 use super::engine::{Engine, View};
@@ -154,6 +156,21 @@ pub fn estimate(
     options: &RasterOptions,
     modes: &[Mode],
 ) -> Result<Vec<PairEstimate>, String> {
+    estimate_with_prior(engine, pair, options, modes, None)
+}
+
+/// Like [`estimate`], with an optional prior on α (e.g. from odometry) that
+/// picks among the candidates; `None` gives exactly [`estimate`]'s result.
+///
+/// # Errors
+/// As [`estimate`].
+pub fn estimate_with_prior(
+    engine: &mut dyn Engine,
+    pair: &PairRecord,
+    options: &RasterOptions,
+    modes: &[Mode],
+    prior: Option<Prior>,
+) -> Result<Vec<PairEstimate>, String> {
     let (r1, r2) = (pair.scan1.ranges(), pair.scan2.ranges());
     if r1.is_empty() || r2.is_empty() {
         return Err("a scan has no beams".into());
@@ -169,7 +186,7 @@ pub fn estimate(
     Ok(modes
         .iter()
         .map(|&mode| {
-            let estimate = engine.estimate(mode);
+            let estimate = engine.estimate_with_prior(mode, prior);
             let motion = raster.motion(estimate.alpha, estimate.translation.as_ref());
             PairEstimate {
                 cell: raster.cell(),

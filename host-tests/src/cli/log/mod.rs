@@ -1,0 +1,718 @@
+//! `log FILE`: the motion between the scans of a robot's recording, a CARMEN
+//! log (plain or `.gz`) or a ROS 2 bag in MCAP.
+//!
+//! The recording is streamed: only the scans a pair still needs are kept
+//! (one for consecutive pairs, the reference scan, or the window). Each pair
+//! goes through the same path as a line of a pair file (`scans::estimate`),
+//! so its output equals `scans` on the same two scans bit for bit; with
+//! `--prior odom` the log's odometry delta is the prior on the rotation.
+//!
+//! Exit status: 0 success; 1 some records (lines, messages) or pairs failed
+//! and the rest were processed; 2 unusable arguments or file, or no usable
+//! scan.
+
+pub mod carmen;
+pub mod ros2;
+pub mod trajectory;
+
+use std::collections::VecDeque;
+use std::fs::File;
+use std::io::{self, BufRead, BufReader, BufWriter, Read, Write};
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+use std::time::Instant;
+
+use clap::{Args, ValueEnum};
+use hough_heading::{Angle, Mode, Prior};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+
+use super::engine::Engine;
+use super::scans::{self, Check, OutputLine, PairRecord, RasterOptions, ScanRecord, Truth};
+use super::summary::{Method, Summary};
+use super::{EstimatorArgs, Fatal, ScanGridArgs};
+use carmen::{CarmenReader, FlaserGeometry};
+use trajectory::Trajectory;
+
+/// A planar pose: metres and radians.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pose {
+    /// x, metres.
+    pub x: f64,
+    /// y, metres.
+    pub y: f64,
+    /// Heading, radians.
+    pub theta: f64,
+}
+
+impl Pose {
+    /// The origin.
+    pub const ZERO: Pose = Pose {
+        x: 0.0,
+        y: 0.0,
+        theta: 0.0,
+    };
+
+    /// `other` in the frame of `self` (the pair files' `dx, dy, dθ`).
+    pub fn between(&self, other: &Pose) -> Pose {
+        let (s, c) = self.theta.sin_cos();
+        let (ex, ey) = (other.x - self.x, other.y - self.y);
+        Pose {
+            x: c * ex + s * ey,
+            y: -s * ex + c * ey,
+            theta: wrap_rad(other.theta - self.theta),
+        }
+    }
+
+    /// `self ⊕ delta`: the pose `delta` (in the frame of `self`) in the world.
+    pub fn compose(&self, delta: &Pose) -> Pose {
+        let (s, c) = self.theta.sin_cos();
+        Pose {
+            x: self.x + c * delta.x - s * delta.y,
+            y: self.y + s * delta.x + c * delta.y,
+            theta: wrap_rad(self.theta + delta.theta),
+        }
+    }
+}
+
+/// Wraps radians to (−π, π].
+pub fn wrap_rad(a: f64) -> f64 {
+    scans::wrap_deg(a.to_degrees()).to_radians()
+}
+
+/// One scan of a recording.
+#[derive(Clone, Debug)]
+pub struct LogScan {
+    /// The scan, as a pair file stores it.
+    pub record: ScanRecord,
+    /// Time stamp, seconds.
+    pub time: Option<f64>,
+    /// The odometry pose at the scan.
+    pub odom: Option<Pose>,
+    /// The log's own pose of the robot (`FLASER` x y θ: corrected in a
+    /// Radish `-corrected` log).
+    pub log_pose: Option<Pose>,
+    /// Where it is in the file (`line 12`, `message 3 (topic /scan)`).
+    pub name: String,
+}
+
+/// What a reader yields.
+#[derive(Clone, Debug)]
+pub enum Event {
+    /// A laser scan.
+    Scan(LogScan),
+    /// An odometry pose.
+    Odometry {
+        /// Time stamp, seconds.
+        time: Option<f64>,
+        /// The pose.
+        pose: Pose,
+    },
+}
+
+impl Event {
+    fn with_record(self, name: String) -> Self {
+        match self {
+            Event::Scan(mut s) => {
+                s.name = name;
+                Event::Scan(s)
+            }
+            other => other,
+        }
+    }
+}
+
+/// A record of the file that could not be used.
+#[derive(Clone, Debug)]
+pub struct RecordError {
+    /// Which record (`line 12`, `message 40 (topic /scan)`).
+    pub record: String,
+    /// Why.
+    pub message: String,
+}
+
+impl RecordError {
+    fn new(record: impl Into<String>, message: impl Into<String>) -> Self {
+        Self {
+            record: record.into(),
+            message: message.into(),
+        }
+    }
+}
+
+/// The format of a recording.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Format {
+    /// By content: MCAP magic bytes, otherwise CARMEN.
+    Auto,
+    /// CARMEN log (`FLASER`, `ROBOTLASER1`, `ODOM` lines), plain or gzip.
+    Carmen,
+    /// ROS 2 bag in MCAP.
+    Mcap,
+}
+
+/// Which scan pairs are estimated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PairsArg {
+    /// Each scan against the previous one (with `--every N`: scans 0, N, 2N, …).
+    Consecutive,
+    /// Each later scan against scan `--reference`.
+    Reference,
+    /// Every pair at most `--window` scans (and `--window-s` seconds) apart
+    /// (loop-closure candidates).
+    Window,
+}
+
+/// Where the rotation prior comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PriorArg {
+    /// No prior.
+    None,
+    /// The log's odometry delta between the two scans.
+    Odom,
+}
+
+/// `log FILE`.
+#[derive(Clone, Debug, Args)]
+pub struct LogArgs {
+    /// The recording: a CARMEN log (`.gz` read directly) or a ROS 2 bag
+    /// (`.mcap`).
+    pub file: PathBuf,
+    /// Input format.
+    #[arg(long, value_enum, default_value_t = Format::Auto)]
+    pub format: Format,
+    /// MCAP: the `sensor_msgs/msg/LaserScan` topic (without it, the bag's
+    /// topics are listed).
+    #[arg(long)]
+    pub topic: Option<String>,
+    /// MCAP: the `nav_msgs/msg/Odometry` topic (default `/odom` when the bag
+    /// has it).
+    #[arg(long, value_name = "TOPIC")]
+    pub odom_topic: Option<String>,
+    /// Which pairs.
+    #[arg(long, value_enum, default_value_t = PairsArg::Consecutive)]
+    pub pairs: PairsArg,
+    /// Use every N-th scan only (scans 0, N, 2N, …).
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub every: usize,
+    /// `--pairs reference`: the reference scan's index.
+    #[arg(long, value_name = "INDEX", default_value_t = 0)]
+    pub reference: usize,
+    /// `--pairs window`: pairs at most this many used scans apart (with
+    /// `--every N`, N × this many scans of the recording).
+    #[arg(long, value_name = "SCANS", default_value_t = 10)]
+    pub window: usize,
+    /// `--pairs window`: and at most this many seconds apart.
+    #[arg(long, value_name = "SECONDS")]
+    pub window_s: Option<f64>,
+    /// `odom`: the odometry's rotation picks among the candidates (within
+    /// 3 × `--prior-sigma`).
+    #[arg(long, value_enum, default_value_t = PriorArg::None)]
+    pub prior: PriorArg,
+    /// One standard deviation of the odometry prior, degrees.
+    #[arg(long, value_name = "DEGREES", default_value_t = 10.0)]
+    pub prior_sigma: f64,
+    /// Writes the chained consecutive estimates as poses (CSV: scan, t, x,
+    /// y, θ, source, with the odometry's and the log's poses).
+    #[arg(long, value_name = "CSV")]
+    pub trajectory: Option<PathBuf>,
+    /// Draws the trajectory over the odometry's (and the log's poses), with
+    /// the scans projected (PNG).
+    #[arg(long, value_name = "PNG")]
+    pub plot: Option<PathBuf>,
+    /// Scores the estimates against the log's poses (the corrected poses of a
+    /// Radish `-corrected` log's `FLASER` lines), like `scans --summary`.
+    #[arg(long)]
+    pub summary: bool,
+    /// Only the first N scans.
+    #[arg(long, value_name = "N")]
+    pub limit: Option<usize>,
+    /// CARMEN `FLASER`: "no return" at or beyond this, metres (`ROBOTLASER1`
+    /// and LaserScan carry their own).
+    #[arg(long, value_name = "METRES", default_value_t = 81.91)]
+    pub max_range: f32,
+    /// CARMEN `FLASER` and LaserScan: the laser pose `X,Y,THETA` (metres,
+    /// radians) in the robot frame (`ROBOTLASER1` carries its own).
+    #[arg(long, value_name = "X,Y,THETA", value_delimiter = ',', num_args = 3)]
+    pub laser_offset: Option<Vec<f32>>,
+    /// No progress bar or timing line.
+    #[arg(long, short)]
+    pub quiet: bool,
+    /// How scans become grids.
+    #[command(flatten)]
+    pub grid: ScanGridArgs,
+    /// Estimator options.
+    #[command(flatten)]
+    pub estimator: EstimatorArgs,
+}
+
+/// A relative pose in the output: degrees and metres.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Delta {
+    /// Heading change, degrees.
+    pub dtheta_deg: f64,
+    /// x, metres, frame of scan 1.
+    pub dx_m: f64,
+    /// y, metres.
+    pub dy_m: f64,
+}
+
+impl Delta {
+    fn of(p: &Pose) -> Self {
+        Self {
+            dtheta_deg: scans::round(p.theta.to_degrees(), 4),
+            dx_m: scans::round(p.x, 4),
+            dy_m: scans::round(p.y, 4),
+        }
+    }
+}
+
+/// One output line: the `scans` line, and which scans, when, and the log's
+/// own deltas.
+#[derive(Clone, Debug, Serialize)]
+pub struct LogLine {
+    /// The estimate, as `scans` prints it (`index` counts the pairs).
+    #[serde(flatten)]
+    pub line: OutputLine,
+    /// Index of the first scan in the recording (0-based, over its scans).
+    pub scan1: usize,
+    /// Index of the second scan.
+    pub scan2: usize,
+    /// Time of the first scan, seconds.
+    pub t1: Option<f64>,
+    /// Time of the second scan.
+    pub t2: Option<f64>,
+    /// The odometry's delta between the two scans.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub odom: Option<Delta>,
+    /// The log's own poses' delta (`FLASER` x y θ: corrected in a Radish
+    /// `-corrected` log).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub log_pose: Option<Delta>,
+}
+
+/// A scan kept for pairing, with its index.
+type Kept = (usize, Rc<LogScan>);
+
+struct Run<'a> {
+    args: &'a LogArgs,
+    file: String,
+    engine: Box<dyn Engine>,
+    options: RasterOptions,
+    mode: Mode,
+    out: BufWriter<io::StdoutLock<'static>>,
+    pairs: usize,
+    failed: usize,
+    summary: Summary,
+    trajectory: Option<Trajectory>,
+    stdout_closed: bool,
+    bar: ProgressBar,
+}
+
+impl Run<'_> {
+    fn report(&mut self, error: &RecordError) {
+        self.failed += 1;
+        let text = format!(
+            "hough-heading: {}: {}: {}",
+            self.file, error.record, error.message
+        );
+        self.bar.suspend(|| eprintln!("{text}"));
+    }
+
+    /// Estimates one pair and writes its line.
+    fn pair(&mut self, a: &Kept, b: &Kept) -> Result<(), Fatal> {
+        let (s1, s2) = (&a.1, &b.1);
+        let odom = s1.odom.zip(s2.odom).map(|(p, q)| p.between(&q));
+        let log_pose = s1.log_pose.zip(s2.log_pose).map(|(p, q)| p.between(&q));
+        let prior = match (self.args.prior, odom) {
+            (PriorArg::Odom, Some(d)) => Some(Prior {
+                alpha: Angle::from_degrees(-d.theta.to_degrees() as f32),
+                sigma: Angle::from_degrees(self.args.prior_sigma as f32),
+            }),
+            _ => None,
+        };
+        let pair = PairRecord {
+            scan1: s1.record.clone(),
+            scan2: s2.record.clone(),
+        };
+        let result = scans::estimate_with_prior(
+            self.engine.as_mut(),
+            &pair,
+            &self.options,
+            &[self.mode],
+            prior,
+        );
+        let index = self.pairs;
+        self.pairs += 1;
+        let line = match &result {
+            Ok(estimates) => OutputLine::of(index, &estimates[0]),
+            Err(message) => {
+                let message = format!("{} and {}: {message}", s1.name, s2.name);
+                self.report(&RecordError::new("pair", message.clone()));
+                OutputLine::error(index, message)
+            }
+        };
+        if let Some(t) = &mut self.trajectory {
+            t.add(a, b, result.as_ref().ok().map(|e| &e[0]), odom);
+        }
+        if self.args.summary {
+            match (&result, log_pose) {
+                (Ok(estimates), Some(d)) => {
+                    let truth = Truth {
+                        dx: d.x,
+                        dy: d.y,
+                        dtheta: d.theta,
+                        check: Check::default(),
+                    };
+                    let method = match self.mode {
+                        Mode::Improved => Method::Improved,
+                        Mode::Paper => Method::Paper,
+                    };
+                    self.summary.add(&truth, &pair, &[(method, &estimates[0])]);
+                }
+                _ => self.summary.add_error(),
+            }
+        }
+        let text = serde_json::to_string(&LogLine {
+            line,
+            scan1: a.0,
+            scan2: b.0,
+            t1: s1.time,
+            t2: s2.time,
+            odom: odom.as_ref().map(Delta::of),
+            log_pose: log_pose.as_ref().map(Delta::of),
+        })
+        .map_err(|e| Fatal::io(format!("JSON output: {e}")))?;
+        if !self.stdout_closed && writeln!(self.out, "{text}").is_err() {
+            // stdout closed (e.g. piped into `head`): keep going for the
+            // trajectory and summary, quietly.
+            self.stdout_closed = true;
+        }
+        Ok(())
+    }
+}
+
+/// Opens the file, undoing gzip (by its magic bytes), with the progress bar
+/// counting the file's bytes.
+fn open(path: &Path, bar: &ProgressBar) -> Result<Box<dyn BufRead>, Fatal> {
+    let name = path.display();
+    let file = File::open(path).map_err(|e| Fatal::io(format!("{name}: cannot read: {e}")))?;
+    if let Ok(meta) = file.metadata() {
+        bar.set_length(meta.len());
+    }
+    let mut raw = BufReader::new(bar.wrap_read(file));
+    let gzip = raw
+        .fill_buf()
+        .map_err(|e| Fatal::io(format!("{name}: cannot read: {e}")))?
+        .starts_with(&[0x1f, 0x8b]);
+    Ok(if gzip {
+        Box::new(BufReader::new(flate2::bufread::MultiGzDecoder::new(raw)))
+    } else {
+        Box::new(raw)
+    })
+}
+
+/// The MCAP magic bytes.
+const MCAP_MAGIC: &[u8] = b"\x89MCAP0\r\n";
+
+/// Runs `log`; the number of failed records and pairs.
+///
+/// # Errors
+/// A [`Fatal`] error for unusable arguments or files, or a recording without
+/// one usable scan.
+pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
+    if args.every == 0 {
+        return Err(Fatal::usage("--every 0: must be at least 1"));
+    }
+    if args.window == 0 {
+        return Err(Fatal::usage("--window 0: must be at least 1"));
+    }
+    if !(args.prior_sigma.is_finite() && args.prior_sigma > 0.0 && args.prior_sigma <= 90.0) {
+        return Err(Fatal::usage(format!(
+            "--prior-sigma {}: must be in (0, 90] degrees",
+            args.prior_sigma
+        )));
+    }
+    if args.window_s.is_some_and(|w| !(w.is_finite() && w > 0.0)) {
+        return Err(Fatal::usage(
+            "--window-s: must be a positive number of seconds",
+        ));
+    }
+    if !(args.max_range.is_finite() && args.max_range > 0.0) {
+        return Err(Fatal::usage(format!(
+            "--max-range {}: must be a positive number of metres",
+            args.max_range
+        )));
+    }
+    let laser_offset = match &args.laser_offset {
+        Some(v) if v.len() == 3 && v.iter().all(|x| x.is_finite()) => Some([v[0], v[1], v[2]]),
+        Some(v) => {
+            return Err(Fatal::usage(format!(
+                "--laser-offset {v:?}: expected three finite numbers X,Y,THETA"
+            )))
+        }
+        None => None,
+    };
+    if (args.trajectory.is_some() || args.plot.is_some()) && args.pairs != PairsArg::Consecutive {
+        return Err(Fatal::usage(
+            "--trajectory and --plot chain consecutive pairs: use them with --pairs consecutive",
+        ));
+    }
+    let file = args.file.display().to_string();
+    let bar = if args.quiet {
+        ProgressBar::hidden()
+    } else {
+        let bar = ProgressBar::new(0);
+        if let Ok(style) = ProgressStyle::with_template(
+            "{bar:40} {bytes}/{total_bytes} {binary_bytes_per_sec} eta {eta} {msg}",
+        ) {
+            bar.set_style(style);
+        }
+        bar
+    };
+    let mut input = open(&args.file, &bar)?;
+    let head = input
+        .fill_buf()
+        .map_err(|e| Fatal::io(format!("{file}: cannot read: {e}")))?;
+    let format = match args.format {
+        Format::Auto if head.starts_with(MCAP_MAGIC) => Format::Mcap,
+        Format::Auto => Format::Carmen,
+        f => f,
+    };
+    let mut run = Run {
+        args,
+        file: file.clone(),
+        engine: args.estimator.engine(args.grid.size)?,
+        options: args.grid.options()?,
+        mode: args.estimator.mode.into(),
+        out: BufWriter::new(io::stdout().lock()),
+        pairs: 0,
+        failed: 0,
+        summary: Summary::default(),
+        trajectory: (args.trajectory.is_some() || args.plot.is_some()).then(Trajectory::default),
+        stdout_closed: false,
+        bar: bar.clone(),
+    };
+    let start = Instant::now();
+    let scans = match format {
+        Format::Carmen | Format::Auto => {
+            let geometry = FlaserGeometry {
+                max_range: args.max_range,
+                laser_offset: laser_offset.unwrap_or([0.0; 3]),
+            };
+            let events = CarmenReader::new(input, geometry).map(Ok);
+            stream(&mut run, events)?
+        }
+        Format::Mcap => {
+            let (topic, odom_topic) = choose_topics(args, &file, input)?;
+            bar.reset();
+            let input = open(&args.file, &bar)?;
+            let events =
+                ros2::BagReader::new(input, &file, &topic, odom_topic.as_deref()).map(|item| {
+                    item.map(|event| {
+                        event.map(|e| match (e, laser_offset) {
+                            (Event::Scan(mut s), Some(o)) => {
+                                s.record.laser_offset = o;
+                                Event::Scan(s)
+                            }
+                            (e, _) => e,
+                        })
+                    })
+                });
+            stream(&mut run, events)?
+        }
+    };
+    let _ = run.out.flush();
+    bar.finish_and_clear();
+    if scans == 0 {
+        return Err(Fatal::io(format!(
+            "{file}: no usable laser scan ({} record(s) failed)",
+            run.failed
+        )));
+    }
+    if !args.quiet {
+        eprintln!(
+            "hough-heading: {file}: {scans} scans, {} pairs ({} failed record(s) or pair(s)) in {:.2} s",
+            run.pairs,
+            run.failed,
+            start.elapsed().as_secs_f64()
+        );
+    }
+    if args.summary {
+        eprintln!(
+            "\n{file}: {} pairs scored against the log's poses ({}², N_θ = {})\n\n{}",
+            args.pairs_name(),
+            args.grid.size,
+            args.estimator.n_theta,
+            run.summary.table()
+        );
+    }
+    if let Some(t) = &run.trajectory {
+        if let Some(path) = &args.trajectory {
+            t.write_csv(path)?;
+        }
+        if let Some(path) = &args.plot {
+            let name = args
+                .file
+                .file_name()
+                .map_or(file.clone(), |n| n.to_string_lossy().into_owned());
+            t.plot(path, &name)?;
+        }
+    }
+    Ok(run.failed)
+}
+
+impl LogArgs {
+    fn pairs_name(&self) -> &'static str {
+        match self.pairs {
+            PairsArg::Consecutive => "consecutive",
+            PairsArg::Reference => "reference",
+            PairsArg::Window => "window",
+        }
+    }
+}
+
+/// The scan topic (checked to exist) and the odometry topic, from one pass
+/// over the bag.
+fn choose_topics(
+    args: &LogArgs,
+    file: &str,
+    input: impl Read,
+) -> Result<(String, Option<String>), Fatal> {
+    let topics = ros2::topics(input, file)?;
+    let topic = match &args.topic {
+        Some(t) if topics.contains_key(t) => t.clone(),
+        other => return Err(ros2::topic_error(file, other.as_deref(), &topics)),
+    };
+    // A scan topic of another type fails at its first message (named).
+    let odom = match &args.odom_topic {
+        Some(t) => match topics.get(t) {
+            Some(i) if i.schema == ros2::ODOMETRY => Some(t.clone()),
+            Some(i) => {
+                return Err(Fatal::usage(format!(
+                    "{file}: topic {t} carries {}, not {}",
+                    i.schema,
+                    ros2::ODOMETRY
+                )))
+            }
+            None => return Err(ros2::topic_error(file, Some(t), &topics)),
+        },
+        None => topics
+            .iter()
+            .find(|(t, i)| t.as_str() == "/odom" && i.schema == ros2::ODOMETRY)
+            .map(|(t, _)| t.clone()),
+    };
+    Ok((topic, odom))
+}
+
+/// Pairs the scans of `events` as asked; the number of scans read.
+fn stream(
+    run: &mut Run<'_>,
+    events: impl Iterator<Item = Result<Result<Event, RecordError>, Fatal>>,
+) -> Result<usize, Fatal> {
+    let args = run.args;
+    let mut scans = 0;
+    let mut kept: VecDeque<Kept> = VecDeque::new();
+    let mut reference: Option<Kept> = None;
+    let mut last_odom: Option<Pose> = None;
+    for event in events {
+        let mut scan = match event? {
+            Err(e) => {
+                run.report(&e);
+                continue;
+            }
+            Ok(Event::Odometry { pose, .. }) => {
+                last_odom = Some(pose);
+                continue;
+            }
+            Ok(Event::Scan(scan)) => scan,
+        };
+        if args.limit.is_some_and(|l| scans >= l) {
+            break;
+        }
+        let index = scans;
+        scans += 1;
+        if !index.is_multiple_of(args.every) {
+            continue;
+        }
+        if scan.odom.is_none() {
+            scan.odom = last_odom;
+        }
+        let current: Kept = (index, Rc::new(scan));
+        run.bar.set_message(format!("scan {index}"));
+        match args.pairs {
+            PairsArg::Consecutive => {
+                if let Some(previous) = kept.pop_back() {
+                    run.pair(&previous, &current)?;
+                } else if let Some(t) = &mut run.trajectory {
+                    t.start(&current);
+                }
+                kept.push_back(current);
+            }
+            PairsArg::Reference => {
+                if index == args.reference {
+                    reference = Some(current);
+                } else if let Some(r) = &reference {
+                    run.pair(&r.clone(), &current)?;
+                }
+            }
+            PairsArg::Window => {
+                let t2 = current.1.time;
+                kept.retain(|(i, s)| {
+                    index - i <= args.window.saturating_mul(args.every)
+                        && match (args.window_s, s.time, t2) {
+                            (Some(w), Some(a), Some(b)) => (b - a).abs() <= w,
+                            _ => true,
+                        }
+                });
+                for k in kept.clone() {
+                    run.pair(&k, &current)?;
+                }
+                kept.push_back(current);
+            }
+        }
+    }
+    if args.pairs == PairsArg::Reference && reference.is_none() && scans > 0 {
+        return Err(Fatal::usage(format!(
+            "--reference {}: the recording has only {scans} scans",
+            args.reference
+        )));
+    }
+    Ok(scans)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn between_and_compose_are_inverse() {
+        let a = Pose {
+            x: 1.0,
+            y: -2.0,
+            theta: 2.5,
+        };
+        let b = Pose {
+            x: -0.5,
+            y: 0.7,
+            theta: -2.9,
+        };
+        let d = a.between(&b);
+        let c = a.compose(&d);
+        assert!((c.x - b.x).abs() < 1e-12 && (c.y - b.y).abs() < 1e-12);
+        assert!(wrap_rad(c.theta - b.theta).abs() < 1e-12);
+        // Robot at the origin facing +y; a pose 1 m further along +y is 1 m
+        // straight ahead.
+        let facing = Pose {
+            x: 0.0,
+            y: 0.0,
+            theta: std::f64::consts::FRAC_PI_2,
+        };
+        let ahead = facing.between(&Pose {
+            x: 0.0,
+            y: 1.0,
+            theta: 0.0,
+        });
+        assert!((ahead.x - 1.0).abs() < 1e-12 && ahead.y.abs() < 1e-12);
+    }
+}

@@ -1,0 +1,610 @@
+//! `hough-heading log` on the bundled recordings (`host-tests/data/logs/`,
+//! written by `tools/make_test_logs.py` with Python's own writers): the
+//! estimates equal `scans` on the same scans in the pair format, the log's
+//! deltas equal the pair files' values, and bad input is a clear error.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+fn logs() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/logs")
+}
+
+fn data(name: &str) -> String {
+    logs().join(name).display().to_string()
+}
+
+fn tool(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hough-heading"))
+        .args(args)
+        .output()
+        .expect("the tool runs")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn json_lines(o: &Output) -> Vec<Value> {
+    stdout(o)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("a JSON line"))
+        .collect()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("log-tests");
+    std::fs::create_dir_all(&dir).expect("scratch dir");
+    dir.join(name)
+}
+
+/// The fields `scans` and `log` both print, without the line index.
+fn estimate_fields(v: &Value) -> serde_json::Map<String, Value> {
+    let mut m = v.as_object().expect("an object").clone();
+    for k in [
+        "index", "file", "scan1", "scan2", "t1", "t2", "odom", "log_pose",
+    ] {
+        m.remove(k);
+    }
+    m
+}
+
+fn pair_lines(name: &str) -> Vec<Value> {
+    std::fs::read_to_string(logs().join(name))
+        .expect("pair file")
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("pair JSON"))
+        .collect()
+}
+
+/// `log` on `args` equals `scans` on `pairs`, pair by pair.
+fn assert_same_as_scans(log_args: &[&str], pairs: &str) -> Vec<Value> {
+    let log = tool(log_args);
+    assert_eq!(log.status.code(), Some(0), "{}", stderr(&log));
+    let scans = tool(&["scans", "-q", &data(pairs)]);
+    assert_eq!(scans.status.code(), Some(0), "{}", stderr(&scans));
+    let (from_log, from_pairs) = (json_lines(&log), json_lines(&scans));
+    assert_eq!(from_log.len(), from_pairs.len());
+    assert!(from_log.len() >= 10);
+    for (k, (a, b)) in from_log.iter().zip(&from_pairs).enumerate() {
+        assert_eq!(a["scan1"], k, "{a}");
+        assert_eq!(a["scan2"], k + 1, "{a}");
+        assert_eq!(estimate_fields(a), estimate_fields(b), "pair {k}");
+    }
+    from_log
+}
+
+#[test]
+fn carmen_log_estimates_equal_scans_on_the_same_pairs() {
+    let lines = assert_same_as_scans(
+        &["log", "-q", &data("seattle-excerpt.log")],
+        "seattle-excerpt.pairs.jsonl",
+    );
+    // Most of these real sequential pairs are resolved (a sanity check that
+    // the comparison is not between two empty outputs).
+    let confident = lines.iter().filter(|l| l["status"] == "confident").count();
+    assert!(confident >= 15, "{confident} confident");
+}
+
+#[test]
+fn gzip_log_reads_like_the_plain_one() {
+    let plain = tool(&["log", "-q", &data("seattle-excerpt.log")]);
+    let gz = tool(&["log", "-q", &data("seattle-excerpt.log.gz")]);
+    assert_eq!(gz.status.code(), Some(0), "{}", stderr(&gz));
+    assert_eq!(stdout(&plain), stdout(&gz));
+}
+
+#[test]
+fn mcap_bag_estimates_equal_scans_on_the_same_pairs() {
+    assert_same_as_scans(
+        &["log", "-q", &data("seattle-bag.mcap"), "--topic", "/scan"],
+        "seattle-bag.pairs.jsonl",
+    );
+}
+
+#[test]
+fn the_logs_own_deltas_equal_the_pair_files_values() {
+    // FLASER x y θ are the corrected poses: their deltas are the pairs'
+    // ground truth. The odometry was written as 5 % more translation and
+    // 0.02 rad more turn per step (tools/make_test_logs.py).
+    let carmen = json_lines(&tool(&["log", "-q", &data("seattle-excerpt.log")]));
+    let bag = json_lines(&tool(&[
+        "log",
+        "-q",
+        &data("seattle-bag.mcap"),
+        "--topic",
+        "/scan",
+    ]));
+    for (lines, pairs, has_truth) in [
+        (&carmen, pair_lines("seattle-excerpt.pairs.jsonl"), true),
+        (&bag, pair_lines("seattle-bag.pairs.jsonl"), false),
+    ] {
+        for (line, pair) in lines.iter().zip(&pairs) {
+            let f = |v: &Value| v.as_f64().expect("a number");
+            let odom = &line["odom"];
+            assert!(
+                (f(&odom["dx_m"]) - 1.05 * f(&pair["dx"])).abs() < 2e-4,
+                "{line}"
+            );
+            assert!(
+                (f(&odom["dy_m"]) - 1.05 * f(&pair["dy"])).abs() < 2e-4,
+                "{line}"
+            );
+            let turn = (f(&pair["dtheta"]) + 0.02).to_degrees();
+            assert!((f(&odom["dtheta_deg"]) - turn).abs() < 2e-3, "{line}");
+            assert_eq!(f(&line["t1"]), f(&pair["t1"]));
+            if has_truth {
+                let log = &line["log_pose"];
+                assert!((f(&log["dx_m"]) - f(&pair["dx"])).abs() < 2e-4, "{line}");
+                assert!((f(&log["dy_m"]) - f(&pair["dy"])).abs() < 2e-4, "{line}");
+                let turn = f(&pair["dtheta"]).to_degrees();
+                assert!((f(&log["dtheta_deg"]) - turn).abs() < 2e-3, "{line}");
+            } else {
+                assert!(line.get("log_pose").is_none(), "{line}");
+            }
+        }
+    }
+}
+
+#[test]
+fn summary_scores_against_the_corrected_poses_like_scans() {
+    let log = tool(&["log", "-q", "--summary", &data("seattle-excerpt.log")]);
+    assert_eq!(log.status.code(), Some(0), "{}", stderr(&log));
+    let scans = tool(&[
+        "scans",
+        "-q",
+        "--summary",
+        &data("seattle-excerpt.pairs.jsonl"),
+    ]);
+    let row = |text: &str, method: &str| {
+        text.lines()
+            .find(|l| l.starts_with(&format!("| all | {method} |")))
+            .map(str::to_owned)
+            .unwrap_or_else(|| panic!("no {method} row in:\n{text}"))
+    };
+    let (a, b) = (stderr(&log), stderr(&scans));
+    assert!(row(&a, "improved").starts_with("| all | improved | 19 |"));
+    assert_eq!(row(&a, "improved"), row(&b, "improved"));
+    assert_eq!(row(&a, "zero"), row(&b, "zero"));
+}
+
+#[test]
+fn pair_modes_every_reference_and_window() {
+    let file = data("seattle-excerpt.log");
+    let pairs = |extra: &[&str]| -> Vec<(u64, u64)> {
+        let mut args = vec!["log", "-q", &file];
+        args.extend_from_slice(extra);
+        let o = tool(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        json_lines(&o)
+            .iter()
+            .map(|l| (l["scan1"].as_u64().unwrap(), l["scan2"].as_u64().unwrap()))
+            .collect()
+    };
+    let every = pairs(&["--every", "4"]);
+    assert_eq!(every, vec![(0, 4), (4, 8), (8, 12), (12, 16)]);
+    let reference = pairs(&["--pairs", "reference", "--reference", "17"]);
+    assert_eq!(reference, vec![(17, 18), (17, 19)]);
+    let window = pairs(&["--pairs", "window", "--window", "2", "--limit", "5"]);
+    assert_eq!(
+        window,
+        vec![(0, 1), (0, 2), (1, 2), (1, 3), (2, 3), (2, 4), (3, 4)]
+    );
+    // A 3 s window: the first scans are at 1244.18, 1246.18, 1247.38 and
+    // 1250.18 s, so (0, 2) and (1, 3) are too far apart.
+    let timed = pairs(&[
+        "--pairs",
+        "window",
+        "--window",
+        "5",
+        "--window-s",
+        "3",
+        "--limit",
+        "4",
+    ]);
+    assert_eq!(timed, vec![(0, 1), (1, 2), (2, 3)]);
+}
+
+#[test]
+fn prior_odom_keeps_the_estimates_near_the_odometry() {
+    let o = tool(&["log", "-q", "--prior", "odom", &data("seattle-excerpt.log")]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    for l in json_lines(&o) {
+        let (est, odom) = (
+            l["dtheta_deg"].as_f64().unwrap(),
+            l["odom"]["dtheta_deg"].as_f64().unwrap(),
+        );
+        assert!((est - odom).abs() < 30.0, "{l}");
+    }
+}
+
+#[test]
+fn trajectory_chains_the_estimates_and_the_plot_is_a_png() {
+    let csv = scratch("trajectory.csv");
+    let png = scratch("trajectory.png");
+    let o = tool(&[
+        "log",
+        "-q",
+        &data("seattle-excerpt.log"),
+        "--trajectory",
+        &csv.display().to_string(),
+        "--plot",
+        &png.display().to_string(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&csv).expect("csv");
+    let rows: Vec<Vec<&str>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), 20);
+    assert_eq!(
+        &rows[0][..6],
+        &[
+            "0",
+            "1244.180000",
+            "0.000000",
+            "0.000000",
+            "0.000000",
+            "start"
+        ]
+    );
+    // The chained estimates end near the corrected poses (independent: the
+    // gmapping-corrected trajectory), and nearer than the drifting odometry.
+    let last = &rows[19];
+    let n = |i: usize| last[i].parse::<f64>().expect("a number");
+    let (x, y) = (n(2), n(3));
+    let (ox, oy) = (n(6), n(7));
+    let (lx, ly) = (n(9), n(10));
+    let err = (x - lx).hypot(y - ly);
+    let odom_err = (ox - lx).hypot(oy - ly);
+    assert!(
+        err < 0.5 && err < odom_err,
+        "estimate {err} m, odometry {odom_err} m"
+    );
+    let bytes = std::fs::read(&png).expect("png");
+    assert!(bytes.starts_with(b"\x89PNG"));
+}
+
+#[test]
+fn a_missing_topic_lists_the_bags_topics() {
+    let o = tool(&["log", &data("seattle-bag.mcap")]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    for t in [
+        "--topic",
+        "/scan  (sensor_msgs/msg/LaserScan, 12 messages)",
+        "/odom  (nav_msgs/msg/Odometry",
+        "/chatter  (std_msgs/msg/String",
+    ] {
+        assert!(e.contains(t), "{t} not in {e}");
+    }
+    let unknown = tool(&["log", &data("seattle-bag.mcap"), "--topic", "/nope"]);
+    assert_eq!(unknown.status.code(), Some(2));
+    assert!(stderr(&unknown).contains("no messages on topic /nope"));
+}
+
+#[test]
+fn a_wrong_message_type_is_an_error_naming_the_topic() {
+    let o = tool(&["log", &data("seattle-bag.mcap"), "--topic", "/chatter"]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    assert!(e.contains("seattle-bag.mcap: message"), "{e}");
+    assert!(
+        e.contains("on topic /chatter is std_msgs/msg/String (cdr encoding); expected sensor_msgs/msg/LaserScan"),
+        "{e}"
+    );
+    assert!(!e.contains("panicked"), "{e}");
+    let o = tool(&[
+        "log",
+        &data("seattle-bag.mcap"),
+        "--topic",
+        "/scan",
+        "--odom-topic",
+        "/chatter",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o)
+            .contains("topic /chatter carries std_msgs/msg/String, not nav_msgs/msg/Odometry"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn a_truncated_bag_keeps_the_pairs_before_the_damage() {
+    let bytes = std::fs::read(logs().join("seattle-bag.mcap")).expect("bag");
+    for (cut, name) in [(bytes.len() * 7 / 10, "cut70.mcap"), (40, "cut40.mcap")] {
+        let path = scratch(name);
+        std::fs::write(&path, &bytes[..cut]).expect("write");
+        let o = tool(&["log", "-q", &path.display().to_string(), "--topic", "/scan"]);
+        let e = stderr(&o);
+        assert!(!e.contains("panicked"), "{e}");
+        assert!(e.contains(name), "{e}");
+        if cut > 40 {
+            // Whole chunks before the cut are read; the damage is one failed
+            // record after them.
+            assert_eq!(o.status.code(), Some(1), "{e}");
+            assert!(e.contains("unreadable MCAP"), "{e}");
+            assert!(!json_lines(&o).is_empty());
+        } else {
+            assert_eq!(o.status.code(), Some(2), "{e}");
+            assert!(e.contains("not a readable MCAP file"), "{e}");
+        }
+    }
+}
+
+#[test]
+fn an_all_nan_scan_fails_alone() {
+    let o = tool(&["log", "-q", &data("nan-scan.mcap"), "--topic", "/scan"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains("nan-scan.mcap: message"), "{e}");
+    assert!(e.contains("all 361 ranges are NaN or infinite"), "{e}");
+    // Scans 0 and 2 still pair.
+    let lines = json_lines(&o);
+    assert_eq!(lines.len(), 1);
+    assert_eq!(
+        (lines[0]["scan1"].as_u64(), lines[0]["scan2"].as_u64()),
+        (Some(0), Some(1))
+    );
+}
+
+/// The excerpt with its FLASER line `k` (0-based among FLASER lines) edited.
+fn edited_excerpt(name: &str, edit: impl Fn(usize, &str) -> Option<String>) -> (PathBuf, usize) {
+    let text = std::fs::read_to_string(logs().join("seattle-excerpt.log")).expect("log");
+    let mut k = 0;
+    let mut edited_line = 0;
+    let mut out = String::new();
+    for (i, line) in text.lines().enumerate() {
+        if line.starts_with("FLASER ") {
+            if let Some(new) = edit(k, line) {
+                edited_line = i + 1;
+                out.push_str(&new);
+                out.push('\n');
+                k += 1;
+                continue;
+            }
+            k += 1;
+        }
+        out.push_str(line);
+        out.push('\n');
+    }
+    let path = scratch(name);
+    std::fs::write(&path, out).expect("write");
+    (path, edited_line)
+}
+
+#[test]
+fn carmen_bad_lines_are_reported_with_their_line_number() {
+    // Too few fields: the line cut after 100 readings.
+    let (short, line) = edited_excerpt("short.log", |k, l| {
+        (k == 5).then(|| l.split(' ').take(100).collect::<Vec<_>>().join(" "))
+    });
+    let o = tool(&["log", "-q", &short.display().to_string()]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains(&format!("short.log: line {line}: FLASER: too few fields")),
+        "{e}"
+    );
+    assert_eq!(json_lines(&o).len(), 18);
+    // A NaN range.
+    let (nan, line) = edited_excerpt("nan.log", |k, l| {
+        (k == 3).then(|| {
+            let mut fields: Vec<&str> = l.split(' ').collect();
+            fields[11] = "nan";
+            fields.join(" ")
+        })
+    });
+    let o = tool(&["log", "-q", &nan.display().to_string()]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains(&format!("nan.log: line {line}: FLASER:")), "{e}");
+    assert!(
+        e.contains("field 12 (range 9) is \"nan\", not a finite number"),
+        "{e}"
+    );
+}
+
+#[test]
+fn unusable_files_exit_with_status_2() {
+    let missing = tool(&["log", "/nonexistent/x.log"]);
+    assert_eq!(missing.status.code(), Some(2));
+    assert!(stderr(&missing).contains("/nonexistent/x.log: cannot read"));
+    // Only bad lines: nothing to estimate from.
+    let (bad, _) = edited_excerpt("all-bad.log", |_, _| Some("FLASER 3 1 2".into()));
+    let o = tool(&["log", "-q", &bad.display().to_string()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("no usable laser scan"),
+        "{}",
+        stderr(&o)
+    );
+    // A binary file that is not MCAP reads as a CARMEN log without scans.
+    let png = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/images/l-shape-a.png");
+    let o = tool(&["log", "-q", &png.display().to_string()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(!stderr(&o).contains("panicked"));
+    // Options.
+    for args in [
+        vec!["--every", "0"],
+        vec!["--pairs", "reference", "--reference", "99"],
+        vec!["--pairs", "window", "--trajectory", "/tmp/x.csv"],
+        vec!["--prior-sigma", "-1"],
+    ] {
+        let mut all = vec!["log", "-q"];
+        let file = data("seattle-excerpt.log");
+        all.push(&file);
+        all.extend(args.iter().copied());
+        let o = tool(&all);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+    }
+}
+
+/// The bundled pairs are lines of the shared Seattle pair file, verbatim
+/// (skipped when `../shared/data` is absent).
+#[test]
+fn bundled_pairs_are_verbatim_lines_of_the_shared_file() {
+    let pairs = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/data/seattle-corrected_pairs.jsonl");
+    if !pairs.exists() {
+        eprintln!("skipped: {} absent", pairs.display());
+        return;
+    }
+    // The excerpt's pairs are lines of the shared file, verbatim.
+    let shared = std::fs::read_to_string(&pairs).expect("shared pairs");
+    let excerpt =
+        std::fs::read_to_string(logs().join("seattle-excerpt.pairs.jsonl")).expect("pairs");
+    for line in excerpt.lines() {
+        assert!(shared.lines().any(|l| l == line));
+    }
+}
+
+/// `ROBOTLASER1` lines (with their own field of view, resolution, maximum
+/// range and a laser offset given by the laser and robot poses) made from
+/// the first bundled pair (fr079: 360 beams, laser 4 cm behind the robot's
+/// centre) give the pair file's estimate, and the odometry delta is the
+/// robot poses' delta.
+#[test]
+fn robotlaser1_lines_give_the_pair_files_estimate() {
+    let pairs = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scans.jsonl");
+    let first = std::fs::read_to_string(&pairs).expect("scans.jsonl");
+    let first = first.lines().next().expect("a line");
+    let pair: Value = serde_json::from_str(first).expect("JSON");
+    let f = |v: &Value| v.as_f64().expect("a number");
+    let robot = [(1.5, -2.0, 0.4), {
+        // The robot pose of scan 2: scan 1's composed with the pair's truth.
+        let (c, s) = (0.4f64.cos(), 0.4f64.sin());
+        let (dx, dy) = (f(&pair["dx"]), f(&pair["dy"]));
+        (
+            1.5 + c * dx - s * dy,
+            -2.0 + s * dx + c * dy,
+            0.4 + f(&pair["dtheta"]),
+        )
+    }];
+    let mut log =
+        String::from("# ROBOTLASER1 excerpt\nPARAM robot_frontlaser_offset -0.04 host 0\n");
+    for (k, name) in ["scan1", "scan2"].iter().enumerate() {
+        let scan = &pair[name];
+        let n = scan["ranges"].as_array().expect("ranges").len();
+        let fov = f(&scan["angle_increment"]) * (n - 1) as f64;
+        let ranges: Vec<String> = scan["ranges"]
+            .as_array()
+            .expect("ranges")
+            .iter()
+            .map(|r| r.to_string())
+            .collect();
+        let (rx, ry, rt) = robot[k];
+        let off = &scan["laser_offset"];
+        let (ox, oy, ot) = (f(&off[0]), f(&off[1]), f(&off[2]));
+        let (lx, ly, lt) = (
+            rx + rt.cos() * ox - rt.sin() * oy,
+            ry + rt.sin() * ox + rt.cos() * oy,
+            rt + ot,
+        );
+        log.push_str(&format!(
+            "ROBOTLASER1 0 {} {fov} {} {} 0.01 0 {n} {} 0 {lx} {ly} {lt} {rx} {ry} {rt} 0 0 0 0 0 {} host {}\n",
+            scan["angle_min"],
+            scan["angle_increment"],
+            scan["max_range"],
+            ranges.join(" "),
+            scan["t"],
+            scan["t"],
+        ));
+    }
+    let path = scratch("robotlaser1.log");
+    std::fs::write(&path, log).expect("write");
+    let from_log = tool(&["log", "-q", &path.display().to_string()]);
+    assert_eq!(from_log.status.code(), Some(0), "{}", stderr(&from_log));
+    let line_file = scratch("robotlaser1.pairs.jsonl");
+    std::fs::write(&line_file, format!("{first}\n")).expect("write");
+    let from_pairs = tool(&["scans", "-q", &line_file.display().to_string()]);
+    let (a, b) = (json_lines(&from_log), json_lines(&from_pairs));
+    assert_eq!(a.len(), 1);
+    assert_eq!(estimate_fields(&a[0]), estimate_fields(&b[0]));
+    let odom = &a[0]["odom"];
+    assert!((f(&odom["dx_m"]) - f(&pair["dx"])).abs() < 1e-4, "{odom}");
+    assert!((f(&odom["dy_m"]) - f(&pair["dy"])).abs() < 1e-4, "{odom}");
+    assert!((f(&odom["dtheta_deg"]) - f(&pair["dtheta"]).to_degrees()).abs() < 1e-3);
+    assert!(a[0].get("log_pose").is_none());
+}
+
+/// Damaged recordings never panic the readers: every truncation of the bag
+/// (in steps) and single-byte corruptions throughout it, and CARMEN lines
+/// with fields dropped, duplicated or replaced, are read to the end in
+/// process (errors allowed, panics not).
+#[test]
+fn damaged_recordings_never_panic_the_readers() {
+    use host_tests::cli::log::carmen::{CarmenReader, FlaserGeometry};
+    use host_tests::cli::log::ros2::BagReader;
+
+    let bag = std::fs::read(logs().join("seattle-bag.mcap")).expect("bag");
+    let read_bag = |bytes: &[u8]| {
+        for topic in ["/scan", "/odom"] {
+            let reader = BagReader::new(bytes, "bag", topic, Some("/odom"));
+            for _ in reader.take(100) {}
+        }
+    };
+    for cut in (0..bag.len()).step_by(53) {
+        read_bag(&bag[..cut]);
+    }
+    // A deterministic spread of positions and byte values.
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    for _ in 0..400 {
+        let mut damaged = bag.clone();
+        let at = (next() % damaged.len() as u64) as usize;
+        damaged[at] = (next() & 0xff) as u8;
+        read_bag(&damaged);
+    }
+    let text = std::fs::read_to_string(logs().join("seattle-excerpt.log")).expect("log");
+    let geometry = FlaserGeometry {
+        max_range: 81.91,
+        laser_offset: [0.0; 3],
+    };
+    let samples = [
+        "",
+        "-1",
+        "nan",
+        "1e400",
+        "18446744073709551616",
+        "x",
+        "0",
+        "361",
+    ];
+    for (i, line) in text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| l.starts_with("FLASER"))
+    {
+        let fields: Vec<&str> = line.split(' ').collect();
+        for _ in 0..30 {
+            let mut f = fields.clone();
+            let at = (next() % f.len() as u64) as usize;
+            match next() % 3 {
+                0 => {
+                    f.remove(at);
+                }
+                1 => f.insert(at, f[at]),
+                _ => f[at] = samples[(next() % samples.len() as u64) as usize],
+            }
+            let damaged = f.join(" ");
+            let reader = CarmenReader::new(damaged.as_bytes(), geometry);
+            assert!(reader.count() <= 1, "line {i}");
+        }
+    }
+}
