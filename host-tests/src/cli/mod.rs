@@ -9,8 +9,8 @@
 pub mod demo;
 pub mod engine;
 pub mod images;
-pub mod mcu;
 pub mod log;
+pub mod mcu;
 pub mod plot;
 pub mod scans;
 pub mod summary;
