@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the recordings of `host-tests/data/logs/` from real scans (issue 17).
+"""Writes the recordings of `cli/data/logs/` from real scans (issue 17).
 
 The scans are consecutive scans of the gmapping-corrected Seattle log, taken
 from the shared scan-pair file `seattle-corrected_pairs.jsonl` (its
@@ -46,7 +46,7 @@ import sys
 
 PAIRS = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data",
                      "seattle-corrected_pairs.jsonl")
-OUT = os.path.join(os.path.dirname(__file__), "..", "host-tests", "data", "logs")
+OUT = os.path.join(os.path.dirname(__file__), "..", "cli", "data", "logs")
 START = (2.0, -1.0, 0.7)  # arbitrary world pose of the first scan
 
 

@@ -1,34 +1,28 @@
-//! `hough-heading demo`: the estimator on the bundled data
-//! (`host-tests/data`): synthetic image pairs made by the project's scene
-//! generator, and a few real laser scan pairs with ground truth.
+//! `hough-heading demo`: the estimator on the bundled data (`cli/data`,
+//! embedded in the binary, so an installed tool runs it anywhere): synthetic
+//! image pairs made by the project's scene generator, and a few real laser
+//! scan pairs with ground truth.
 
-use std::path::{Path, PathBuf};
+use std::borrow::Cow;
+use std::path::Path;
 use std::time::Instant;
 
 use hough_heading::Mode;
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
-use serde::{Deserialize, Serialize};
+use serde::Deserialize;
 
 use super::engine::Engine;
-use super::images::Fit;
+use super::images::{self, Fit, Threshold};
 use super::scans::{self, wrap_deg, PairRecord, RasterOptions, Truth};
 use super::{
-    engine_for, images_result, lines, load_images, read_input, DemoArgs, EstimatorArgs, Fatal,
+    engine_for, images_result, lines, place_images, read_input, DemoArgs, EstimatorArgs, Fatal,
     ImageArgs, ModeArg,
 };
-use crate::reference::Image;
-use crate::scene::{self, Damage, PbmFormat, Scene, Transform};
-
-/// The bundled data, found from the source tree (works from the repo root
-/// and from `host-tests/`).
-pub const DATA_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/data");
 
 /// Side of the bundled synthetic images.
 pub const IMAGE_SIZE: usize = 128;
 
 /// One bundled image pair: files (relative to the data directory) and truth.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 pub struct ImagePairSpec {
     /// Short name.
     pub name: String,
@@ -53,157 +47,129 @@ pub const SCANS_FILE: &str = "scans.jsonl";
 /// One short note per line of [`SCANS_FILE`] (a JSON array of strings).
 pub const SCANS_NOTES: &str = "scans.notes.json";
 
-/// The synthetic pairs: spec, scene, damage and seed. Deterministic.
-pub fn image_pairs() -> Vec<(ImagePairSpec, Scene, Damage, u64)> {
-    let rng = |seed| ChaCha8Rng::seed_from_u64(seed);
-    let spec = |name: &str, about: &str, ext: &str, alpha: f64, t: (f64, f64)| ImagePairSpec {
-        name: name.into(),
-        about: about.into(),
-        a: format!("images/{name}-a.{ext}"),
-        b: format!("images/{name}-b.{ext}"),
-        alpha_deg: alpha,
-        tx_px: t.0,
-        ty_px: t.1,
-    };
-    vec![
-        (
-            spec(
-                "polygon",
-                "random polygon, moderate damage",
-                "pbm",
-                37.0,
-                (4.0, -3.0),
-            ),
-            scene::random_polygon(&mut rng(11)),
-            Damage::MODERATE,
-            101,
-        ),
-        (
-            spec(
-                "room",
-                "Manhattan room with furniture, moderate damage",
-                "pbm",
-                -120.0,
-                (-5.0, 2.0),
-            ),
-            scene::manhattan_room(&mut rng(12)),
-            Damage::MODERATE,
-            102,
-        ),
-        (
-            spec("l-shape", "an L, clean (PNG)", "png", -160.0, (3.0, 6.0)),
-            scene::l_shape(1.6, 0.9),
-            Damage::CLEAN,
-            103,
-        ),
-        (
-            spec(
-                "corridor",
-                "corridor: α and α + 180° look alike",
-                "pbm",
-                60.0,
-                (2.0, 0.0),
-            ),
-            scene::corridor(&mut rng(14)),
-            Damage::MODERATE,
-            104,
-        ),
-    ]
+/// The demo's data files (`cli/data`, see its README), embedded: name
+/// relative to the data directory, bytes.
+pub const BUNDLED: [(&str, &[u8]); 12] = [
+    (IMAGES_MANIFEST, include_bytes!("../data/images/truth.json")),
+    (
+        "images/polygon-a.pbm",
+        include_bytes!("../data/images/polygon-a.pbm"),
+    ),
+    (
+        "images/polygon-b.pbm",
+        include_bytes!("../data/images/polygon-b.pbm"),
+    ),
+    (
+        "images/room-a.pbm",
+        include_bytes!("../data/images/room-a.pbm"),
+    ),
+    (
+        "images/room-b.pbm",
+        include_bytes!("../data/images/room-b.pbm"),
+    ),
+    (
+        "images/l-shape-a.png",
+        include_bytes!("../data/images/l-shape-a.png"),
+    ),
+    (
+        "images/l-shape-b.png",
+        include_bytes!("../data/images/l-shape-b.png"),
+    ),
+    (
+        "images/corridor-a.pbm",
+        include_bytes!("../data/images/corridor-a.pbm"),
+    ),
+    (
+        "images/corridor-b.pbm",
+        include_bytes!("../data/images/corridor-b.pbm"),
+    ),
+    (SCANS_FILE, include_bytes!("../data/scans.jsonl")),
+    (SCANS_NOTES, include_bytes!("../data/scans.notes.json")),
+    ("README.md", include_bytes!("../data/README.md")),
+];
+
+/// Where the demo reads its files.
+#[derive(Clone, Copy, Debug)]
+enum Source<'a> {
+    /// [`BUNDLED`].
+    Bundled,
+    /// A directory with the layout of `cli/data`.
+    Dir(&'a Path),
 }
 
-/// Renders the synthetic pairs: `(spec, A, B)`.
-pub fn render_image_pairs() -> Vec<(ImagePairSpec, Image, Image)> {
-    image_pairs()
-        .into_iter()
-        .map(|(spec, scene, damage, seed)| {
-            let transform = Transform {
-                alpha_rad: spec.alpha_deg.to_radians(),
-                tx: spec.tx_px,
-                ty: spec.ty_px,
-                scale: 1.0,
-            };
-            let pair =
-                scene::render_pair(&scene, &transform, &damage, IMAGE_SIZE, IMAGE_SIZE, seed);
-            (spec, pair.i1.image, pair.i2.image)
-        })
-        .collect()
-}
-
-/// The bytes of a bundled image file: P4 PBM for `.pbm` (P1 for the room, to
-/// bundle both encodings), PNG for `.png` (black = occupied).
-pub fn encode(image: &Image, file: &str) -> Result<Vec<u8>, Fatal> {
-    if file.ends_with(".png") {
-        let grey = image::GrayImage::from_fn(image.width as u32, image.height as u32, |c, r| {
-            image::Luma([if image.get(c as usize, r as usize) {
-                0
-            } else {
-                255
-            }])
-        });
-        let mut bytes = Vec::new();
-        grey.write_to(
-            &mut std::io::Cursor::new(&mut bytes),
-            image::ImageFormat::Png,
-        )
-        .map_err(|e| Fatal::io(format!("{file}: {e}")))?;
-        Ok(bytes)
-    } else if file.contains("room") {
-        Ok(scene::to_pbm(image, PbmFormat::Ascii))
-    } else {
-        Ok(scene::to_pbm(image, PbmFormat::Binary))
-    }
-}
-
-fn regenerate(dir: &Path) -> Result<(), Fatal> {
-    std::fs::create_dir_all(dir.join("images"))
-        .map_err(|e| Fatal::io(format!("{}: {e}", dir.display())))?;
-    let mut specs = Vec::new();
-    for (spec, a, b) in render_image_pairs() {
-        for (file, image) in [(&spec.a, &a), (&spec.b, &b)] {
-            let path = dir.join(file);
-            std::fs::write(&path, encode(image, file)?)
-                .map_err(|e| Fatal::io(format!("{}: {e}", path.display())))?;
+impl Source<'_> {
+    /// The file's name for messages and its bytes.
+    fn read(self, file: &str) -> Result<(String, Cow<'static, [u8]>), Fatal> {
+        match self {
+            Source::Bundled => BUNDLED
+                .iter()
+                .find(|(name, _)| *name == file)
+                .map(|(name, bytes)| (format!("<bundled>/{name}"), Cow::Borrowed(*bytes)))
+                .ok_or_else(|| Fatal::io(format!("<bundled>/{file}: not bundled"))),
+            Source::Dir(dir) => {
+                let path = dir.join(file);
+                let bytes = read_input(&path)?;
+                Ok((path.display().to_string(), Cow::Owned(bytes)))
+            }
         }
-        specs.push(spec);
     }
-    let manifest = serde_json::to_string_pretty(&specs).map_err(|e| Fatal::io(e.to_string()))?;
-    let path = dir.join(IMAGES_MANIFEST);
-    std::fs::write(&path, manifest + "\n")
-        .map_err(|e| Fatal::io(format!("{}: {e}", path.display())))?;
-    eprintln!("wrote {} image pairs to {}", specs.len(), dir.display());
+}
+
+/// Writes [`BUNDLED`] into `dir` (created).
+fn write_data(dir: &Path) -> Result<(), Fatal> {
+    for (name, bytes) in BUNDLED {
+        let path = dir.join(name);
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent)
+                .map_err(|e| Fatal::io(format!("{}: {e}", parent.display())))?;
+        }
+        std::fs::write(&path, bytes).map_err(|e| Fatal::io(format!("{}: {e}", path.display())))?;
+    }
+    eprintln!("wrote {} files to {}", BUNDLED.len(), dir.display());
     Ok(())
 }
 
-/// Runs the demo (or regenerates the bundled images).
+/// Runs the demo (or writes the bundled data out).
 ///
 /// # Errors
-/// When the bundled data cannot be read.
+/// When the data cannot be read (`--data`) or written (`--write-data`).
 pub fn run(args: &DemoArgs) -> Result<(), Fatal> {
-    if args.regenerate {
-        return regenerate(&args.data);
+    if let Some(dir) = &args.write_data {
+        return write_data(dir);
     }
+    let source = args.data.as_deref().map_or(Source::Bundled, Source::Dir);
     let start = Instant::now();
-    println!("hough-heading demo: data in {}\n", args.data.display());
-    let (ok_images, n_images) = demo_images(&args.data)?;
-    let (ok_scans, n_scans) = demo_scans(&args.data)?;
+    match source {
+        Source::Bundled => {
+            println!("hough-heading demo: the bundled data (cli/data, embedded in the binary)\n");
+        }
+        Source::Dir(dir) => println!("hough-heading demo: data in {}\n", dir.display()),
+    }
+    let (ok_images, n_images) = demo_images(source)?;
+    let (ok_scans, n_scans) = demo_scans(source)?;
     println!(
         "\n✓ {ok_images}/{n_images} image pairs and {ok_scans}/{n_scans} scan pairs right: within 2° of the \
          truth, or flagged with the truth among the candidates; {:.2} s.",
         start.elapsed().as_secs_f64()
     );
-    let d = args.data.display();
     println!("Try:");
+    let d = match source {
+        Source::Bundled => {
+            println!("  hough-heading demo --write-data demo-data");
+            "demo-data".to_string()
+        }
+        Source::Dir(dir) => dir.display().to_string(),
+    };
     println!("  hough-heading images {d}/images/polygon-a.pbm {d}/images/polygon-b.pbm");
     println!("  hough-heading scans {d}/{SCANS_FILE} --summary --compare");
     println!("  hough-heading plot scans {d}/{SCANS_FILE} --index 6 --out figures");
     Ok(())
 }
 
-fn demo_images(dir: &Path) -> Result<(usize, usize), Fatal> {
-    let manifest_path = dir.join(IMAGES_MANIFEST);
-    let manifest = read_input(&manifest_path)?;
+fn demo_images(source: Source<'_>) -> Result<(usize, usize), Fatal> {
+    let (manifest_name, manifest) = source.read(IMAGES_MANIFEST)?;
     let specs: Vec<ImagePairSpec> = serde_json::from_slice(&manifest)
-        .map_err(|e| Fatal::io(format!("{}: {e}", manifest_path.display())))?;
+        .map_err(|e| Fatal::io(format!("{manifest_name}: {e}")))?;
     println!("Synthetic image pairs ({IMAGE_SIZE}², N_θ = 360, improved mode; made by host-tests/src/scene.rs):");
     println!(
         "    {:<10} {:>8} {:>9} {:>7}  {:<20} {:>14} {:>14}",
@@ -226,10 +192,17 @@ fn demo_images(dir: &Path) -> Result<(usize, usize), Fatal> {
         alignment_ratio: None,
         min_overlap: None,
     };
+    let threshold = Threshold {
+        level: options.threshold,
+        invert: options.invert,
+    };
     let mut ok = 0;
     for spec in &specs {
-        let (mut engine, offsets) =
-            load_images(&dir.join(&spec.a), &dir.join(&spec.b), &options, &estimator)?;
+        let (a, a_bytes) = source.read(&spec.a)?;
+        let (b, b_bytes) = source.read(&spec.b)?;
+        let ia = images::decode(&a_bytes, &a, threshold)?;
+        let ib = images::decode(&b_bytes, &b, threshold)?;
+        let (mut engine, offsets) = place_images((&a, &ia), (&b, &ib), &options, &estimator)?;
         let r = images_result(engine.as_mut(), Mode::Improved, offsets);
         let error = wrap_deg(r.alpha_deg - spec.alpha_deg).abs();
         let right = error <= 2.0
@@ -258,9 +231,8 @@ fn demo_images(dir: &Path) -> Result<(usize, usize), Fatal> {
     Ok((ok, specs.len()))
 }
 
-fn demo_scans(dir: &Path) -> Result<(usize, usize), Fatal> {
-    let path: PathBuf = dir.join(SCANS_FILE);
-    let bytes = read_input(&path)?;
+fn demo_scans(source: Source<'_>) -> Result<(usize, usize), Fatal> {
+    let (path, bytes) = source.read(SCANS_FILE)?;
     let mut engine: Box<dyn Engine> = engine_for(256, 360)?;
     // The `scans` command's defaults: segments between beams ≤ 0.3 m apart.
     let options = RasterOptions {
@@ -269,9 +241,9 @@ fn demo_scans(dir: &Path) -> Result<(usize, usize), Fatal> {
         disc: false,
     };
     println!("\nReal laser scan pairs (256², N_θ = 360, improved mode; window = p90 of ranges; see data/README.md):");
-    let notes_path = dir.join(SCANS_NOTES);
-    let notes: Vec<String> = serde_json::from_slice(&read_input(&notes_path)?)
-        .map_err(|e| Fatal::io(format!("{}: {e}", notes_path.display())))?;
+    let (notes_path, notes) = source.read(SCANS_NOTES)?;
+    let notes: Vec<String> =
+        serde_json::from_slice(&notes).map_err(|e| Fatal::io(format!("{notes_path}: {e}")))?;
     println!(
         "    {:<18} {:>8} {:>9} {:>7}  {:<20} {:>14} {:>14}",
         "pair", "true dθ", "dθ", "error", "status", "true d (m)", "d (m)"
@@ -279,7 +251,7 @@ fn demo_scans(dir: &Path) -> Result<(usize, usize), Fatal> {
     let mut ok = 0;
     let all = lines(&bytes);
     for (i, line) in all.iter().enumerate() {
-        let named = |e: String| Fatal::io(format!("{}: line {}: {e}", path.display(), i + 1));
+        let named = |e: String| Fatal::io(format!("{path}: line {}: {e}", i + 1));
         let pair: PairRecord = serde_json::from_slice(line).map_err(|e| named(e.to_string()))?;
         let truth: Truth = serde_json::from_slice(line).map_err(|e| named(e.to_string()))?;
         let name: Label = serde_json::from_slice(line).map_err(|e| named(e.to_string()))?;

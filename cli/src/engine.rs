@@ -10,7 +10,7 @@ use hough_heading::{
     Thresholds,
 };
 
-use crate::reference::Image;
+use crate::images::Image;
 
 /// Which of the two views of a pair.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

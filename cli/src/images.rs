@@ -1,12 +1,82 @@
-//! Reading binary images (PBM `P1`/`P4`, PNG, other PNM) and fitting them to
-//! a supported grid size.
+//! The tool's binary images: reading them (PBM `P1`/`P4`, PNG, other PNM)
+//! and fitting them to a supported grid size.
 
+use std::io::{BufRead, Cursor, Seek};
 use std::path::Path;
 
-use image::ImageReader;
+use image::{ImageFormat, ImageReader};
 
 use super::Fatal;
-use crate::reference::Image;
+
+/// A binary image, row-major, `true` = occupied.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Image {
+    /// Number of columns `W`.
+    pub width: usize,
+    /// Number of rows `H`.
+    pub height: usize,
+    /// `W × H` cells, row-major: cell `(col, row)` is `pixels[row * W + col]`.
+    pixels: Vec<bool>,
+}
+
+impl Image {
+    /// An empty (all free) `width × height` image.
+    pub fn new(width: usize, height: usize) -> Self {
+        Self {
+            width,
+            height,
+            pixels: vec![false; width * height],
+        }
+    }
+
+    /// Whether cell `(col, row)` is occupied.
+    ///
+    /// # Panics
+    /// If the cell lies outside the image.
+    pub fn get(&self, col: usize, row: usize) -> bool {
+        assert!(
+            col < self.width && row < self.height,
+            "cell ({col}, {row}) outside the image"
+        );
+        self.pixels[row * self.width + col]
+    }
+
+    /// Sets cell `(col, row)` to `value`.
+    ///
+    /// # Panics
+    /// If the cell lies outside the image.
+    pub fn set(&mut self, col: usize, row: usize, value: bool) {
+        assert!(
+            col < self.width && row < self.height,
+            "cell ({col}, {row}) outside the image"
+        );
+        self.pixels[row * self.width + col] = value;
+    }
+
+    /// Number of occupied cells.
+    pub fn count(&self) -> usize {
+        self.pixels.iter().filter(|&&p| p).count()
+    }
+
+    /// The occupied cells as `(col, row)`, in row-major order.
+    pub fn occupied(&self) -> Vec<(usize, usize)> {
+        self.pixels
+            .iter()
+            .enumerate()
+            .filter(|(_, &p)| p)
+            .map(|(i, _)| (i % self.width, i / self.width))
+            .collect()
+    }
+
+    /// Centred coordinates `(x, y)` of cell `(col, row)` in pixels:
+    /// `x = col − (W−1)/2`, `y = (H−1)/2 − row` (y up).
+    pub fn coords(&self, col: usize, row: usize) -> (f64, f64) {
+        (
+            col as f64 - (self.width as f64 - 1.0) / 2.0,
+            (self.height as f64 - 1.0) / 2.0 - row as f64,
+        )
+    }
+}
 
 /// How an image becomes occupied cells.
 #[derive(Clone, Copy, Debug)]
@@ -26,9 +96,31 @@ pub struct Threshold {
 /// A message naming the file when it cannot be read or decoded (truncated,
 /// unknown format), or has no occupied pixel.
 pub fn read(path: &Path, threshold: Threshold) -> Result<Image, Fatal> {
-    let name = path.display();
-    let decoded = ImageReader::open(path)
-        .map_err(|e| Fatal::io(format!("{name}: cannot open: {e}")))?
+    let name = path.display().to_string();
+    let reader =
+        ImageReader::open(path).map_err(|e| Fatal::io(format!("{name}: cannot open: {e}")))?;
+    from_reader(reader, &name, threshold)
+}
+
+/// Decodes the bytes of an image file named `name` (its extension is the
+/// format's first guess, as for a file; the bytes decide when they can).
+///
+/// # Errors
+/// As [`read`].
+pub fn decode(bytes: &[u8], name: &str, threshold: Threshold) -> Result<Image, Fatal> {
+    let mut reader = ImageReader::new(Cursor::new(bytes));
+    if let Ok(format) = ImageFormat::from_path(name) {
+        reader.set_format(format);
+    }
+    from_reader(reader, name, threshold)
+}
+
+fn from_reader<R: BufRead + Seek>(
+    reader: ImageReader<R>,
+    name: &str,
+    threshold: Threshold,
+) -> Result<Image, Fatal> {
+    let decoded = reader
         .with_guessed_format()
         .map_err(|e| Fatal::io(format!("{name}: cannot read: {e}")))?
         .decode()

@@ -1,10 +1,17 @@
 //! The `hough-heading` command-line tool: rotation (and translation) between
 //! two binary images or laser scans, a demo on bundled data, a real-data
-//! summary and figures.
+//! summary and figures. The binary (`src/main.rs`) calls [`main`]; the
+//! modules are public for the tool's own tests.
 //!
 //! Exit status: 0 success; 1 some scan pairs failed (their output lines have
 //! `"status": "error"`); 2 usage error, unreadable file, wrong image size or
 //! empty image.
+//!
+//! On bare-metal targets this library is empty (`no_std`): the package is a
+//! default workspace member, and `cargo build --lib --target <bare-metal>`
+//! must work from the repository root.
+#![cfg_attr(target_os = "none", no_std)]
+#![cfg(not(target_os = "none"))]
 
 pub mod demo;
 pub mod engine;
@@ -307,12 +314,14 @@ pub struct ScansArgs {
 /// `demo`.
 #[derive(Clone, Debug, Args)]
 pub struct DemoArgs {
-    /// Directory of the bundled data.
-    #[arg(long, default_value = demo::DATA_DIR)]
-    pub data: PathBuf,
-    /// Regenerate the bundled synthetic images into `--data` and exit.
-    #[arg(long, hide = true)]
-    pub regenerate: bool,
+    /// Read the demo's files from this directory (laid out as `cli/data` of
+    /// the source) instead of the copy bundled in the binary.
+    #[arg(long, value_name = "DIR", conflicts_with = "write_data")]
+    pub data: Option<PathBuf>,
+    /// Write the bundled files into DIR (created) and exit, e.g. to try the
+    /// other subcommands on them.
+    #[arg(long, value_name = "DIR")]
+    pub write_data: Option<PathBuf>,
 }
 
 /// `plot`.
@@ -490,6 +499,22 @@ pub fn load_images(
     };
     let ia = images::read(a, threshold)?;
     let ib = images::read(b, threshold)?;
+    place_images(
+        (&a.display().to_string(), &ia),
+        (&b.display().to_string(), &ib),
+        args,
+        estimator,
+    )
+}
+
+/// Places two decoded images, each with its file name (for messages), on a
+/// common grid: the engine holds them.
+pub fn place_images(
+    (a, ia): (&str, &images::Image),
+    (b, ib): (&str, &images::Image),
+    args: &ImageArgs,
+    estimator: &EstimatorArgs,
+) -> Result<Loaded, Fatal> {
     let supported = engine::sizes();
     let size = match args.size {
         Some(s) => s,
@@ -500,10 +525,7 @@ pub fn load_images(
                 return Err(Fatal::io(format!(
                     "{}: image is {}×{}; supported grids are square, side {:?}: use --fit centre \
                      to pad/crop, or resize the image",
-                    a.display(),
-                    ia.width,
-                    ia.height,
-                    supported
+                    a, ia.width, ia.height, supported
                 )));
             }
         }
@@ -518,13 +540,13 @@ pub fn load_images(
     };
     let mut engine = estimator.engine(size)?;
     engine.set_scale_search(args.scale_range()?);
-    let pa = images::place(&ia, &a.display().to_string(), size, args.fit)?;
-    let pb = images::place(&ib, &b.display().to_string(), size, args.fit)?;
+    let pa = images::place(ia, a, size, args.fit)?;
+    let pb = images::place(ib, b, size, args.fit)?;
     for (name, p) in [(a, &pa), (b, &pb)] {
         if p.cropped > 0 {
             eprintln!(
                 "hough-heading: {}: {} occupied pixel(s) outside the {size}×{size} grid were cropped",
-                name.display(),
+                name,
                 p.cropped
             );
         }

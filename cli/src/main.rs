@@ -1,5 +1,5 @@
-//! `hough-heading`: see `hough-heading --help` and [`host_tests::cli`].
+//! `hough-heading`: see `hough-heading --help` and [`hough_heading_cli`].
 
 fn main() -> std::process::ExitCode {
-    host_tests::cli::main()
+    hough_heading_cli::main()
 }

@@ -15,7 +15,7 @@
 //! `bash .ci/firmware.sh` runs both around the firmware on the Cortex-M4F and
 //! the Cortex-M0.
 
-#[path = "../../../examples/support/pairs.rs"]
+#[path = "../../examples/support/pairs.rs"]
 pub mod pairs;
 
 use std::collections::BTreeMap;

@@ -17,7 +17,7 @@ use plotters::prelude::*;
 use super::engine::{Engine, Figures, View};
 use super::scans::{self, PairRecord, RasterOptions, Truth};
 use super::{lines, load_images, read_input, Fatal, PlotArgs, PlotWhat};
-use crate::reference::Image;
+use crate::images::Image;
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
 type Drawn = Result<(), Box<dyn Error>>;

@@ -195,18 +195,46 @@ fn demo_runs_on_the_bundled_data() {
     assert!(out.contains("6/7 scan pairs"), "{out}");
 }
 
+/// The rows of a demo report (pairs and verdict, without the timing).
+fn demo_rows(out: &str) -> Vec<String> {
+    out.lines()
+        .filter(|l| l.starts_with("  ✓") || l.starts_with("  ✗"))
+        .map(String::from)
+        .collect()
+}
+
 #[test]
-fn bundled_images_match_the_generator() {
-    for (spec, a, b) in host_tests::cli::demo::render_image_pairs() {
-        for (file, image) in [(&spec.a, &a), (&spec.b, &b)] {
-            let bundled = std::fs::read(data_dir().join(file)).unwrap();
-            let made = host_tests::cli::demo::encode(image, file).unwrap();
-            assert!(
-                bundled == made,
-                "{file} differs from the generator: run `hough-heading demo --regenerate`"
-            );
-        }
+fn demo_writes_its_bundled_data_and_reads_a_directory() {
+    let dir = scratch("demo-data");
+    let o = tool(&["demo", "--write-data", &dir.display().to_string()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Byte-identical to the source tree's data directory.
+    for file in [
+        "images/truth.json",
+        "images/polygon-a.pbm",
+        "images/room-b.pbm",
+        "images/l-shape-a.png",
+        "scans.jsonl",
+        "scans.notes.json",
+        "README.md",
+    ] {
+        let written = std::fs::read(dir.join(file)).unwrap();
+        assert!(
+            written == std::fs::read(data_dir().join(file)).unwrap(),
+            "{file}"
+        );
     }
+    let bundled = tool(&["demo"]);
+    let from_dir = tool(&["demo", "--data", &dir.display().to_string()]);
+    assert!(from_dir.status.success(), "{}", stderr(&from_dir));
+    assert!(stdout(&from_dir).contains(&dir.display().to_string()));
+    assert_eq!(demo_rows(&stdout(&bundled)).len(), 11);
+    assert_eq!(demo_rows(&stdout(&bundled)), demo_rows(&stdout(&from_dir)));
+    // A directory without the files is an unreadable-file error.
+    let empty = scratch("demo-empty");
+    let o = tool(&["demo", "--data", &empty.display().to_string()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("truth.json"), "{}", stderr(&o));
 }
 
 #[test]
@@ -506,8 +534,8 @@ fn real_fr079_pairs_with_overlap_are_mostly_within_two_degrees() {
         println!("skipped: {} is absent", path.display());
         return;
     };
-    use host_tests::cli::scans::{estimate, PairRecord, RasterOptions, Truth};
-    let mut engine = host_tests::cli::engine::engine(256, 360).unwrap();
+    use hough_heading_cli::scans::{estimate, PairRecord, RasterOptions, Truth};
+    let mut engine = hough_heading_cli::engine::engine(256, 360).unwrap();
     let options = RasterOptions {
         cell: None,
         connect: None,

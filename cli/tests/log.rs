@@ -1,4 +1,4 @@
-//! `hough-heading log` on the bundled recordings (`host-tests/data/logs/`,
+//! `hough-heading log` on the bundled recordings (`cli/data/logs/`,
 //! written by `tools/make_test_logs.py` with Python's own writers): the
 //! estimates equal `scans` on the same scans in the pair format, the log's
 //! deltas equal the pair files' values, and bad input is a clear error.
@@ -544,8 +544,8 @@ fn robotlaser1_lines_give_the_pair_files_estimate() {
 /// process (errors allowed, panics not).
 #[test]
 fn damaged_recordings_never_panic_the_readers() {
-    use host_tests::cli::log::carmen::{CarmenReader, FlaserGeometry};
-    use host_tests::cli::log::ros2::BagReader;
+    use hough_heading_cli::log::carmen::{CarmenReader, FlaserGeometry};
+    use hough_heading_cli::log::ros2::BagReader;
 
     let bag = std::fs::read(logs().join("seattle-bag.mcap")).expect("bag");
     let read_bag = |bytes: &[u8]| {

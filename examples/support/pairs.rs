@@ -1,6 +1,6 @@
 //! The scan-pair file of the real-scan firmware (`examples/real_scans.rs`),
 //! and its result lines. Shared, source for source, by the firmware and the
-//! host tool (`host-tests/src/cli/mcu.rs` includes this file), so that both
+//! host tool (`cli/src/mcu.rs` includes this file), so that both
 //! ends decode the ranges and print the estimates with the same code.
 //!
 //! # Pair file, version 1 (`hough-heading mcu export`)

@@ -36,13 +36,13 @@
 
 use std::io::Write;
 
-use host_tests::cli;
 use hough_heading::{
     fit_translation, match_profile, paper_asymmetry, range_percentile, rho_bins, row_words, Angle,
     ColumnShift, ColumnStats, Correlation, Estimate, Estimator, Grid, Mode, PeakKind, Prior,
     Raster, Reference, ScaleRange, Scan, Score, SensorOffset, Signature, Status, Thresholds,
     WeightedShift, MAX_FIT_COLUMNS, RUNNERS_UP,
 };
+use hough_heading_cli as cli;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 

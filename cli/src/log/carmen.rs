@@ -31,7 +31,7 @@ use std::f64::consts::PI;
 use std::io::BufRead;
 
 use super::{Event, LogScan, Pose, RecordError};
-use crate::cli::scans::ScanRecord;
+use crate::scans::ScanRecord;
 
 /// How `FLASER` lines become scans (they carry no geometry).
 #[derive(Clone, Copy, Debug)]

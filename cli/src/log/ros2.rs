@@ -18,8 +18,8 @@ use mcap::sans_io::LinearReaderOptions;
 use serde::Deserialize;
 
 use super::{Event, LogScan, Pose, RecordError};
-use crate::cli::scans::ScanRecord;
-use crate::cli::Fatal;
+use crate::scans::ScanRecord;
+use crate::Fatal;
 
 /// Largest MCAP record (and chunk, compressed or not) read, bytes: a
 /// corrupt length fails instead of allocating it.
@@ -352,7 +352,7 @@ impl<R: Read> Iterator for BagReader<R> {
 mod tests {
     use super::*;
 
-    const BAG: &[u8] = include_bytes!("../../../data/logs/seattle-bag.mcap");
+    const BAG: &[u8] = include_bytes!("../../data/logs/seattle-bag.mcap");
 
     fn payloads(topic: &str) -> Vec<Vec<u8>> {
         messages(BAG)

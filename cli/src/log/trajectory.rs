@@ -17,10 +17,10 @@ use hough_heading::Status;
 use plotters::prelude::*;
 
 use super::{Kept, Pose};
-use crate::cli::plot::{register_font, FONT};
-use crate::cli::scans::PairEstimate;
-use crate::cli::summary::quantile;
-use crate::cli::Fatal;
+use crate::plot::{register_font, FONT};
+use crate::scans::PairEstimate;
+use crate::summary::quantile;
+use crate::Fatal;
 
 /// Most scan points kept for the figure (the scans are thinned evenly).
 const MAX_POINTS: usize = 200_000;
