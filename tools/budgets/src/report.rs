@@ -612,7 +612,7 @@ pub fn check(budget: &Value, measured: &Map<String, Value>) -> Vec<String> {
             // A metric of the budget file that the new measurement lacks (or
             // left null) is a failure, not a metric skipped (issue 14 item 5).
             for (metric, value) in allowed.as_object().into_iter().flatten() {
-                if !value.is_null() && now.get(metric).map_or(true, Value::is_null) {
+                if !value.is_null() && now.get(metric).is_none_or(Value::is_null) {
                     regressions.push(format!("{triple} {key}: {metric} not measured any more"));
                 }
             }
