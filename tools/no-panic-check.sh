@@ -14,16 +14,26 @@
 #    the panic machinery, with its source line and the entry points reaching
 #    it (needs `llvm-objdump`, `llvm-nm`, `llvm-addr2line`: Debian's `llvm`).
 #
+# 3. Negative control (issue 14): the same strict build with
+#    `--features negative-control`, which adds an index out of bounds on an
+#    opaque input, must FAIL to link on the undefined symbol. If it links, the
+#    check cannot fail and the script fails (exit 3), --report-only or not.
+#
 # Usage: tools/no-panic-check.sh [--report-only]
 #   --report-only   list the panic paths but exit 0 (for a CI that only
-#                   reports until the remaining sites are removed)
+#                   reports until the remaining sites are removed); the
+#                   negative control still fails the run
 # Environment:
 #   NO_PANIC_OPT_LEVELS   release opt-levels to check, default "3" (the
 #                         crate's release profile); e.g. "3 s z".
 #   NO_PANIC_TARGET       default thumbv7em-none-eabihf.
+#   NO_PANIC_NEGATIVE_CONTROL
+#                         1 (default): run the negative control once, at the
+#                         first opt-level; 0: skip it.
 #
 # Exit status: 0 no panic path (or --report-only), 1 panic paths found,
-# 2 the checker itself failed to build for another reason.
+# 2 the checker itself failed to build for another reason, 3 the negative
+# control linked (the check is broken).
 set -euo pipefail
 
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -61,6 +71,26 @@ for opt in ${NO_PANIC_OPT_LEVELS:-3}; do
     python3 "$root/tools/no-panic/panic_paths.py" \
         "$target_dir/$target/release/no-panic-check" "$root" || true
 done
+
+if [[ "${NO_PANIC_NEGATIVE_CONTROL:-1}" == 1 ]]; then
+    opts=(${NO_PANIC_OPT_LEVELS:-3})
+    opt="${opts[0]}"
+    export CARGO_PROFILE_RELEASE_OPT_LEVEL="$opt"
+    log="$target_dir/negative-control-$opt.log"
+    echo "no-panic-check: negative control, opt-level $opt, $target: a deliberate panic must make the strict link fail"
+    if cargo build --quiet --release --locked --target "$target" --features strict,negative-control \
+        --manifest-path "$manifest" --target-dir "$target_dir" >"$log" 2>&1; then
+        echo "no-panic-check: NEGATIVE CONTROL FAILED: the binary with a deliberate panic linked, so the check cannot fail" >&2
+        exit 3
+    fi
+    if ! grep -q "hough_heading_panic_path_reachable" "$log"; then
+        cat "$log" >&2
+        echo "no-panic-check: the negative control failed to build for another reason (see above)" >&2
+        exit 2
+    fi
+    echo "no-panic-check: negative control OK: the strict link failed as it must:"
+    grep -m1 "undefined symbol.*hough_heading_panic_path_reachable" "$log" | sed 's/^/    /' || true
+fi
 
 if [[ $status -ne 0 && $report_only -eq 1 ]]; then
     echo "no-panic-check: --report-only: not failing"

@@ -524,14 +524,42 @@ fn plot_writes_a_png_sheet() {
 }
 
 // ---------------------------------------------------------------------------
-// Real data (skipped when ../shared/data is absent).
+// Real data (skipped when ../shared/data is absent, except on CI).
+
+/// Whether the environment variable `CI` is set to something other than
+/// empty, `0` or `false` (CI services set `CI=true`; `.ci/run` sets `CI=1`
+/// unless told otherwise).
+fn on_ci() -> bool {
+    std::env::var("CI").is_ok_and(|v| !matches!(v.trim(), "" | "0" | "false"))
+}
+
+/// The text of `../shared/data/<name>` (next to the clone), or `None` after
+/// printing `SKIPPED: …` to stderr when it is absent (a user's clone). On CI
+/// (`CI` set, see [`on_ci`]) the data must be there: a missing file fails the
+/// test instead of skipping it.
+fn real_data(name: &str) -> Option<String> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/data")
+        .join(name);
+    match std::fs::read_to_string(&path) {
+        Ok(text) => Some(text),
+        Err(e) if on_ci() => panic!(
+            "CI is set but the real data {} cannot be read ({e}): CI must run this test",
+            path.display()
+        ),
+        Err(e) => {
+            eprintln!(
+                "SKIPPED: real-data test: {} cannot be read ({e}); set CI=1 to make this a failure",
+                path.display()
+            );
+            None
+        }
+    }
+}
 
 #[test]
 fn real_fr079_pairs_with_overlap_are_mostly_within_two_degrees() {
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/fr079-flirt_pairs.jsonl");
-    let Ok(text) = std::fs::read_to_string(&path) else {
-        println!("skipped: {} is absent", path.display());
+    let Some(text) = real_data("fr079-flirt_pairs.jsonl") else {
         return;
     };
     use hough_heading_cli::scans::{estimate, PairRecord, RasterOptions, Truth};

@@ -26,13 +26,23 @@
 //!    on arbitrary and mutated PBM (`P1`, `P4`) and PNG files;
 //! 6. the tool's scan-pair parser and pipeline (`serde_json` into
 //!    `cli::scans::PairRecord`, then `cli::scans::estimate`) on arbitrary and
-//!    mutated JSON lines.
+//!    mutated JSON lines;
+//! 7. random scenes of every kind (`host_tests::scene`), moved by a random
+//!    similarity and damaged at random, through the estimator with random
+//!    settings (the translation, the scale search and the verification
+//!    reached with real structure: the counts are asserted);
+//! 8. checksum-valid hostile stored references: real `Reference::to_bytes`
+//!    output with chosen fields set to values the library never writes,
+//!    checksum recomputed, then the signature accessors, `paper_asymmetry`
+//!    and the estimate (`S(θ) = i16::MIN` in an ignored test until issue 14
+//!    item 1 is fixed).
 //!
 //! Every case must return (no panic, in the test profile's overflow-checked
 //! arithmetic) with a result in its documented range. Case counts are printed
 //! (`--nocapture`); `FUZZ_SCALE` (default 1) multiplies them, e.g.
-//! `FUZZ_SCALE=20 cargo test --release --test fuzz_harness` for a long run.
-//! The whole file takes about a minute in the test profile on 2 cores.
+//! `FUZZ_SCALE=11 cargo test -p host-tests --test fuzz_harness -- --nocapture`
+//! for the long run (1 014 805 cases; `--release` would drop the overflow
+//! checks). The default run, 92 255 cases, takes about 70 s on 2 cores.
 
 use std::io::Write;
 
@@ -1207,4 +1217,440 @@ fn fuzz_cli_scan_pairs() {
         },
     );
     println!("  of which parsed and estimated: {}", parsed.get());
+}
+
+// ---------------------------------------------------------------------------
+// Geometry-aware generators (issue 14 item 6): random scenes of every kind
+// (`host_tests::scene`), moved by a random similarity and rendered with random
+// damage, so that the translation fit, the scale search and the verification
+// by alignment are reached with real structure, not only with noise.
+
+/// How the two views of a scene case are paired.
+#[derive(Clone, Copy, Debug)]
+enum Views {
+    /// `I1`, `I2` as rendered.
+    Pair,
+    /// `I2` as the reference, `I1` as the new view.
+    Swapped,
+    /// `I1` against itself.
+    Same,
+    /// `I1` against `I2` of another scene (nothing in common).
+    Unrelated,
+    /// `I1` against an empty grid.
+    EmptySecond,
+}
+
+/// One rendered scene pair: the scene kind and seed, the motion (translation
+/// as a fraction of the smaller side), the damage and the pairing.
+#[derive(Clone, Debug)]
+struct SceneCase {
+    kind: usize,
+    seed: u64,
+    alpha_rad: f64,
+    t: (f64, f64),
+    scale: f64,
+    damage: host_tests::scene::Damage,
+    views: Views,
+}
+
+/// Damage over and beyond the presets' range: jitter 0–2 px, outliers 0–60 %,
+/// missing 0–70 %, occluded 0–50 %; clean a quarter of the time.
+fn scene_damage() -> impl Strategy<Value = host_tests::scene::Damage> {
+    use host_tests::scene::Damage;
+    prop_oneof![
+        1 => Just(Damage::CLEAN),
+        3 => (0.0..2.0f64, 0.0..0.6f64, 0.0..0.7f64, 0.0..0.5f64).prop_map(
+            |(jitter_px, outlier_fraction, missing_fraction, occluded_fraction)| Damage {
+                jitter_px,
+                outlier_fraction,
+                missing_fraction,
+                occluded_fraction,
+            }
+        ),
+    ]
+}
+
+fn scene_case() -> impl Strategy<Value = SceneCase> {
+    (
+        0..host_tests::scene::SceneKind::ALL.len(),
+        any::<u64>(),
+        0.0..std::f64::consts::TAU,
+        (-0.15..0.15f64, -0.15..0.15f64),
+        prop_oneof![Just(1.0), 0.8..1.25f64],
+        scene_damage(),
+        prop_oneof![
+            6 => Just(Views::Pair),
+            1 => Just(Views::Swapped),
+            1 => Just(Views::Same),
+            1 => Just(Views::Unrelated),
+            1 => Just(Views::EmptySecond),
+        ],
+    )
+        .prop_map(
+            |(kind, seed, alpha_rad, t, scale, damage, views)| SceneCase {
+                kind,
+                seed,
+                alpha_rad,
+                t,
+                scale,
+                damage,
+                views,
+            },
+        )
+}
+
+/// The two grids of a scene case (`W × H`; `render_pair` fits the scene so
+/// that both views stay inside the image).
+fn scene_grids<const W: usize, const H: usize, const RW: usize>(
+    c: &SceneCase,
+) -> (Grid<W, H, RW>, Grid<W, H, RW>) {
+    use host_tests::eval::grid_from_image;
+    use host_tests::scene::{render_pair, SceneKind, Transform};
+    use rand::SeedableRng;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(c.seed);
+    let m = W.min(H) as f64;
+    let truth = Transform {
+        alpha_rad: c.alpha_rad,
+        tx: c.t.0 * m,
+        ty: c.t.1 * m,
+        scale: c.scale,
+    };
+    let render = |kind: usize, rng: &mut rand_chacha::ChaCha8Rng, seed: u64| {
+        let scene = SceneKind::ALL[kind % SceneKind::ALL.len()].generate(rng);
+        render_pair(&scene, &truth, &c.damage, W, H, seed)
+    };
+    let pair = render(c.kind, &mut rng, c.seed ^ 0x5eed);
+    let g1 = grid_from_image::<W, H, RW>(&pair.i1.image);
+    let g2 = grid_from_image::<W, H, RW>(&pair.i2.image);
+    match c.views {
+        Views::Pair => (g1, g2),
+        Views::Swapped => (g2, g1),
+        Views::Same => (g1.clone(), g1),
+        Views::Unrelated => {
+            let other = render(c.kind + 1, &mut rng, c.seed.wrapping_add(1));
+            (g1, grid_from_image::<W, H, RW>(&other.i2.image))
+        }
+        Views::EmptySecond => (g1, Grid::new()),
+    }
+}
+
+/// Random scenes, damaged at random, one configuration: the invariants of
+/// [`check`] and the status rule, with random modes, verification, thresholds,
+/// priors and scale searches. Counts how often the translation, a scale
+/// other than 1 and a verified `Confident` answer were reached, and fails
+/// if the translation or the scale search was never reached (the generator
+/// would then not exercise what it is for).
+fn estimator_on_scenes<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+    const PW: usize,
+>(
+    base: u32,
+    seed: u8,
+) {
+    use std::cell::Cell;
+    let (translations, scaled, confident) = (Cell::new(0u32), Cell::new(0u32), Cell::new(0u32));
+    let name = format!("estimator {W}x{H}/{N} random damaged scenes");
+    fuzz(
+        &name,
+        base,
+        seed,
+        (
+            scene_case(),
+            (mode(), verification()),
+            prop_oneof![3 => Just(Thresholds::DEFAULT), 1 => thresholds()],
+            prior(),
+            prop_oneof![Just(None), Just(Some(ScaleRange::DEFAULT)), scale_range()],
+        ),
+        |(case, (m, v), t, p, s)| {
+            let (g1, g2) = scene_grids::<W, H, RW>(&case);
+            let mut e = Estimator::<W, H, RW, N, HALF, RHO, PW>::new(m)
+                .with_thresholds(t)
+                .with_verification(v);
+            e.set_scale_search(s);
+            let verified = Some(m == Mode::Improved && v);
+            let reference = e.reference(&g1);
+            let plain = e.estimate(&reference, &g2);
+            check(&plain, false, s, verified)?;
+            if verified == Some(true) {
+                common::check_status_rule::<N>(&plain, &t, &g2)?;
+                if plain.status == Status::Confident {
+                    confident.set(confident.get() + 1);
+                }
+            }
+            if let Some(tr) = &plain.translation {
+                translations.set(translations.get() + 1);
+                if tr.scale != Score::ONE {
+                    scaled.set(scaled.get() + 1);
+                }
+            }
+            check(
+                &e.estimate_with_prior(&reference, &g2, p),
+                p.is_some(),
+                s,
+                verified,
+            )
+        },
+    );
+    println!(
+        "  of which with a translation: {}, a scale ≠ 1: {}, verified and confident: {}",
+        translations.get(),
+        scaled.get(),
+        confident.get()
+    );
+    assert!(translations.get() > 0, "{name}: no translation reached");
+    assert!(scaled.get() > 0, "{name}: the scale search never moved");
+    assert!(confident.get() > 0, "{name}: never a verified Confident");
+}
+
+#[test]
+fn fuzz_estimator_on_random_scenes() {
+    sized!(estimator_on_scenes, 64, 64, 128)(300, 70);
+    sized!(estimator_on_scenes, 96, 64, 180)(150, 71);
+    sized!(estimator_on_scenes, 128, 128, 360)(60, 72);
+}
+
+// ---------------------------------------------------------------------------
+// Checksum-valid but hostile stored references (issue 14 items 1 and 6): real
+// `Reference::to_bytes` output of a rendered scene, with chosen fields set to
+// values the library never writes (S(θ) = i16::MIN or i16::MAX, peaks above
+// the bound `max_votes_per_bin`, profile θ and counts, the profile count, the
+// peak kind, another scene's grid with its consistent count), the checksum
+// recomputed as `src/reference.rs` does (FNV-1a over everything before it).
+// Whatever `from_bytes` accepts must then estimate without a panic.
+
+/// One edit of the stored reference's fields (64², `HALF` = 64).
+#[derive(Clone, Debug)]
+enum Hostile {
+    /// `S(θ_k)` := value.
+    Asymmetry(usize, i16),
+    /// Every `S(θ)` := value.
+    AsymmetryAll(i16),
+    /// `D(θ_k)` := value.
+    Peak(usize, u16),
+    /// Every `D(θ)` := value.
+    PeakAll(u16),
+    /// Profile slot's θ := value (accepted below `HALF`).
+    ProfileTheta(usize, u16),
+    /// Profile slot's count at ρ bin := value.
+    ProfileCount(usize, usize, u8),
+    /// Every count of a profile slot := value.
+    ProfileFill(usize, u8),
+    /// Number of stored profiles := value.
+    Profiles(u8),
+    /// Peak kind byte := value (0 single bin, 1 two bins).
+    Kind(u8),
+    /// The grid of another scene (seed), with its cell count.
+    GridOf(u64),
+}
+
+/// The layout of `Reference::<64, 64, 2, 64, RHO>` bytes.
+mod layout64 {
+    pub const HALF: usize = 64;
+    pub const RHO: usize = hough_heading::rho_bins(64, 64);
+    pub const KIND: usize = 12;
+    pub const PROFILES: usize = 13;
+    pub const OCCUPIED: usize = 16;
+    pub const PEAKS: usize = 20;
+    pub const ASYMMETRY: usize = PEAKS + 2 * HALF;
+    pub const PROFILE: usize = ASYMMETRY + 2 * HALF;
+    pub const GRID: usize = PROFILE + hough_heading::PROFILE_COLUMNS * (2 + RHO);
+}
+
+/// Edits; `s_min` lets `S(θ)` take `i16::MIN` (the known defect of issue 14
+/// item 1) or keeps it out.
+fn hostile(s_min: bool) -> impl Strategy<Value = Hostile> {
+    use layout64::{HALF, RHO};
+    let low = if s_min { i16::MIN } else { i16::MIN + 1 };
+    let s = prop_oneof![
+        Just(low),
+        Just(i16::MAX),
+        Just(-1i16),
+        Just(0i16),
+        low..=i16::MAX
+    ];
+    let bound = hough_heading::max_votes_per_bin(64, 64) as u16;
+    let d = prop_oneof![
+        Just(u16::MAX),
+        Just(bound),
+        Just(bound + 1),
+        Just(0u16),
+        any::<u16>()
+    ];
+    let slot = 0..hough_heading::PROFILE_COLUMNS;
+    prop_oneof![
+        (0..HALF, s.clone()).prop_map(|(k, v)| Hostile::Asymmetry(k, v)),
+        s.prop_map(Hostile::AsymmetryAll),
+        (0..HALF, d.clone()).prop_map(|(k, v)| Hostile::Peak(k, v)),
+        d.prop_map(Hostile::PeakAll),
+        (
+            slot.clone(),
+            prop_oneof![0..HALF as u16, Just(HALF as u16 - 1), any::<u16>()]
+        )
+            .prop_map(|(i, v)| Hostile::ProfileTheta(i, v)),
+        (slot.clone(), 0..RHO, any::<u8>()).prop_map(|(i, r, v)| Hostile::ProfileCount(i, r, v)),
+        (slot, prop_oneof![Just(0u8), Just(255u8), any::<u8>()])
+            .prop_map(|(i, v)| Hostile::ProfileFill(i, v)),
+        (0u8..=hough_heading::PROFILE_COLUMNS as u8).prop_map(Hostile::Profiles),
+        (0u8..=1).prop_map(Hostile::Kind),
+        any::<u64>().prop_map(Hostile::GridOf),
+    ]
+}
+
+/// A rendered 64² scene pair (clean to moderate damage).
+fn scene_pair64(seed: u64) -> (Grid<64, 64, 2>, Grid<64, 64, 2>) {
+    let case = SceneCase {
+        kind: (seed % 4) as usize,
+        seed,
+        alpha_rad: (seed % 6283) as f64 / 1000.0,
+        t: (0.05, -0.03),
+        scale: 1.0,
+        damage: host_tests::scene::Damage::MODERATE,
+        views: Views::Pair,
+    };
+    scene_grids::<64, 64, 2>(&case)
+}
+
+/// Applies `edits` to `bytes` and recomputes the checksum.
+fn apply_hostile(bytes: &mut [u8], edits: &[Hostile]) {
+    use layout64::*;
+    let put16 = |b: &mut [u8], at: usize, v: [u8; 2]| b[at..at + 2].copy_from_slice(&v);
+    for edit in edits {
+        match *edit {
+            Hostile::Asymmetry(k, v) => put16(bytes, ASYMMETRY + 2 * k, v.to_le_bytes()),
+            Hostile::AsymmetryAll(v) => {
+                for k in 0..HALF {
+                    put16(bytes, ASYMMETRY + 2 * k, v.to_le_bytes());
+                }
+            }
+            Hostile::Peak(k, v) => put16(bytes, PEAKS + 2 * k, v.to_le_bytes()),
+            Hostile::PeakAll(v) => {
+                for k in 0..HALF {
+                    put16(bytes, PEAKS + 2 * k, v.to_le_bytes());
+                }
+            }
+            Hostile::ProfileTheta(i, v) => put16(bytes, PROFILE + i * (2 + RHO), v.to_le_bytes()),
+            Hostile::ProfileCount(i, r, v) => bytes[PROFILE + i * (2 + RHO) + 2 + r] = v,
+            Hostile::ProfileFill(i, v) => {
+                let at = PROFILE + i * (2 + RHO) + 2;
+                bytes[at..at + RHO].fill(v);
+            }
+            Hostile::Profiles(v) => bytes[PROFILES] = v,
+            Hostile::Kind(v) => bytes[KIND] = v,
+            Hostile::GridOf(seed) => {
+                let (other, _) = scene_pair64(seed);
+                for (i, word) in other.words().iter().flatten().enumerate() {
+                    bytes[GRID + 4 * i..GRID + 4 * i + 4].copy_from_slice(&word.to_le_bytes());
+                }
+                bytes[OCCUPIED..OCCUPIED + 4].copy_from_slice(&other.occupied().to_le_bytes());
+            }
+        }
+    }
+    let end = bytes.len() - 4;
+    let sum = fnv1a(&bytes[..end]);
+    bytes[end..].copy_from_slice(&sum.to_le_bytes());
+}
+
+/// Hostile references, checksum recomputed: every edit set is accepted or
+/// refused with an error, and an accepted reference estimates (both modes,
+/// verification on or off, a scale search or not, with a prior) within the
+/// invariants of [`check`].
+fn hostile_references(base: u32, seed: u8, s_min: bool) {
+    use layout64::{HALF, RHO};
+    type R = Reference<64, 64, 2, HALF, RHO>;
+    type E = Estimator<64, 64, 2, 128, HALF, RHO, { hough_heading::pyramid_words(64, 64) }>;
+    let accepted = std::cell::Cell::new(0u32);
+    let name = format!(
+        "Reference::from_bytes hostile fields{}, checksummed",
+        if s_min { " incl. S = i16::MIN" } else { "" }
+    );
+    fuzz(
+        &name,
+        base,
+        seed,
+        (
+            any::<u64>(),
+            mode(),
+            proptest::collection::vec(hostile(s_min), 1..5),
+            (mode(), verification()),
+            proptest::option::weighted(0.3, Just(ScaleRange::DEFAULT)),
+            prior(),
+        ),
+        |(scene, written_by, edits, (m, v), s, p)| {
+            let (g1, g2) = scene_pair64(scene);
+            let mut bytes = vec![0u8; R::BYTES];
+            E::new(written_by)
+                .reference(&g1)
+                .to_bytes(&mut bytes)
+                .unwrap();
+            apply_hostile(&mut bytes, &edits);
+            let Ok(reference) = R::from_bytes(&bytes) else {
+                return Ok(());
+            };
+            accepted.set(accepted.get() + 1);
+            // Written again, it reads back and writes the same bytes (the
+            // bytes of unused profile slots are not kept).
+            let mut out = vec![0u8; R::BYTES];
+            prop_assert_eq!(reference.to_bytes(&mut out), Ok(R::BYTES));
+            let again = R::from_bytes(&out);
+            prop_assert!(again.is_ok(), "{again:?}");
+            let mut twice = vec![0u8; R::BYTES];
+            prop_assert_eq!(again.unwrap().to_bytes(&mut twice), Ok(R::BYTES));
+            prop_assert_eq!(&twice, &out);
+            // The public accessors of the stored signature over the full
+            // circle, and the paper's asymmetry test with the stored
+            // signature on either side.
+            let signature = reference.signature();
+            let mut e = E::new(m).with_verification(v);
+            let current = E::new(Mode::Paper).reference(&g2);
+            for k in [0, 1, HALF - 1, HALF, HALF + 1, 2 * HALF - 1, 2 * HALF] {
+                for (s1, s2) in [
+                    (signature, current.signature()),
+                    (current.signature(), signature),
+                    (signature, signature),
+                ] {
+                    let c = hough_heading::paper_asymmetry(s1, s2, k);
+                    prop_assert!((-(1 << 16)..=1 << 16).contains(&c), "{c}");
+                }
+            }
+            for k in 0..4 * HALF {
+                prop_assert!(signature.peak(k) == signature.peaks()[k % HALF]);
+                let a = signature.asymmetry(k);
+                let stored = signature.asymmetries()[k % HALF];
+                prop_assert!(a == stored || i32::from(a) == -i32::from(stored));
+            }
+            e.set_scale_search(s);
+            let verified = Some(m == Mode::Improved && v);
+            let estimate = e.estimate(&reference, &g2);
+            prop_assert!((Score::ZERO..=Score::ONE).contains(&estimate.half_turn.margin()));
+            check(&estimate, false, s, verified)?;
+            check(&e.estimate(&reference, &g1), false, s, verified)?;
+            check(
+                &e.estimate_with_prior(&reference, &g2, p),
+                p.is_some(),
+                s,
+                verified,
+            )
+        },
+    );
+    println!("  of which accepted and estimated: {}", accepted.get());
+    assert!(accepted.get() > 0, "{name}: nothing accepted");
+}
+
+#[test]
+fn fuzz_hostile_reference_bytes() {
+    hostile_references(1500, 80, false);
+}
+
+/// As [`fuzz_hostile_reference_bytes`], with `S(θ) = i16::MIN` among the
+/// values: `Signature::asymmetry(k)` for `k ≥ HALF` negates it (issue 14
+/// item 1), which overflows in the test profile.
+#[test]
+#[ignore = "issue 14 item 1: library fix pending"]
+fn fuzz_hostile_reference_bytes_with_s_min() {
+    hostile_references(1500, 81, true);
 }

@@ -74,6 +74,11 @@ struct Args {
     /// root (see ACCURACY.md).
     #[arg(long)]
     experiments: bool,
+    /// Fail (exit status 1) when a figure of the improved mode crosses its
+    /// limit (see `limits`; set with a margin on the `--quick` run, which CI
+    /// runs as `--quick --check`).
+    #[arg(long)]
+    check: bool,
 }
 
 /// One row of the evaluation.
@@ -806,4 +811,232 @@ fn main() {
     if let Some(path) = args.out {
         std::fs::write(&path, &report).expect("write the report");
     }
+    if args.check {
+        let failed = check_limits(&improved_results);
+        if failed > 0 {
+            eprintln!("accuracy --check: {failed} limit(s) crossed");
+            std::process::exit(1);
+        }
+        eprintln!("accuracy --check: every limit met");
+    }
+}
+
+/// One limit of `--check`: a figure of the improved mode (verification on,
+/// as shipped), its limit, and whether the figure must stay at most (`true`)
+/// or at least (`false`) the limit.
+struct Limit {
+    what: &'static str,
+    measured: f64,
+    limit: f64,
+    at_most: bool,
+}
+
+/// The limits of `--check` (issue 14 item 5), set on the `--quick` run
+/// (100 trials a row, 64² and 128², seeded: the same figures on every run of
+/// the same code) with a clear margin to today's figures (each limit's
+/// comment: today → limit), so that only a real regression fails. A row the
+/// run did not include (e.g. with `--only`) gives a NaN figure, which fails.
+/// An estimator that returns a constant, never says `Confident`, searches no
+/// scale or fits no translation crosses several of them.
+fn limits(results: &[(Row, Vec<Outcome>)]) -> Vec<Limit> {
+    let summaries = |pick: &dyn Fn(&Row) -> bool| -> Vec<Summary> {
+        results
+            .iter()
+            .filter(|(r, _)| pick(r))
+            .map(|(_, o)| Summary::of(o))
+            .collect()
+    };
+    let one = |kind, size, damage| summaries(&|r: &Row| r.is(kind, size, damage)).pop();
+    let field = |s: &Option<Summary>, f: fn(&Summary) -> f64| s.as_ref().map_or(f64::NAN, f);
+    let nan_zero = |f: f64| if f.is_nan() { 0.0 } else { f };
+    let poly128 = one(SceneKind::RandomPolygon, 128, "moderate");
+    let poly64 = one(SceneKind::RandomPolygon, 64, "moderate");
+    let manh128 = one(SceneKind::ManhattanRoom, 128, "moderate");
+    let poly128_unit = summaries(&|r: &Row| {
+        r.kind == SceneKind::RandomPolygon
+            && r.size == 128
+            && r.damage.0 == "moderate"
+            && !r.with_scale
+    })
+    .pop();
+    // Polygons and Manhattan rooms, clean or moderate (every size, with and
+    // without the scale): the decidable rows.
+    let decidable = summaries(&|r: &Row| {
+        !r.kind.is_centrally_symmetric() && matches!(r.damage.0, "clean" | "moderate")
+    });
+    let mean = |v: &[f64]| {
+        if v.is_empty() {
+            f64::NAN
+        } else {
+            v.iter().sum::<f64>() / v.len() as f64
+        }
+    };
+    let mean_failures = mean(&decidable.iter().map(|s| s.failures).collect::<Vec<_>>());
+    let worst_unflagged = decidable
+        .iter()
+        .map(|s| nan_zero(s.failures_unflagged))
+        .fold(f64::NAN, f64::max);
+    let occluded = summaries(&|r: &Row| {
+        !r.kind.is_centrally_symmetric() && r.size == 128 && r.damage.0 == "occluded"
+    });
+    let occluded_unflagged = mean(
+        &occluded
+            .iter()
+            .map(|s| nan_zero(s.failures_unflagged))
+            .collect::<Vec<_>>(),
+    );
+    let min_flagged = |pick: &dyn Fn(&Row) -> bool| {
+        summaries(pick)
+            .iter()
+            .map(|s| s.flagged)
+            .fold(f64::NAN, f64::min)
+    };
+    let indep_moderate = min_flagged(&|r: &Row| r.independent && r.damage.0 == "moderate");
+    let shared_clean = min_flagged(&|r: &Row| {
+        r.kind.is_centrally_symmetric() && !r.independent && r.damage.0 == "clean"
+    });
+    let limit = |what, measured, at_most, limit| Limit {
+        what,
+        measured,
+        limit,
+        at_most,
+    };
+    vec![
+        // 0.162° → 0.25° (the README's target).
+        limit(
+            "polygons 128² moderate: median error °",
+            field(&poly128, |s| s.median_deg),
+            true,
+            0.25,
+        ),
+        // 0.494° → 0.75°.
+        limit(
+            "polygons 128² moderate: p90 error °",
+            field(&poly128, |s| s.p90_deg),
+            true,
+            0.75,
+        ),
+        // 0.0 % → 2 %.
+        limit(
+            "polygons 128² moderate: failures > 5°",
+            field(&poly128, |s| s.failures),
+            true,
+            0.02,
+        ),
+        // 0.0 % → 5 %.
+        limit(
+            "polygons 128² moderate: flagged",
+            field(&poly128, |s| s.flagged),
+            true,
+            0.05,
+        ),
+        // 0.541° → 0.8°.
+        limit(
+            "polygons 64² moderate: median error °",
+            field(&poly64, |s| s.median_deg),
+            true,
+            0.8,
+        ),
+        // 0.0 % → 2 %.
+        limit(
+            "Manhattan rooms 128² moderate: failures > 5°",
+            field(&manh128, |s| s.failures),
+            true,
+            0.02,
+        ),
+        // 4.0 % → 10 %.
+        limit(
+            "Manhattan rooms 128² moderate: flagged",
+            field(&manh128, |s| s.flagged),
+            true,
+            0.10,
+        ),
+        // 0.0 % → 1 %.
+        limit(
+            "polygons + Manhattan rooms, clean + moderate rows: mean failures > 5°",
+            mean_failures,
+            true,
+            0.01,
+        ),
+        // 0.0 % → 3 %.
+        limit(
+            "polygons + Manhattan rooms, clean + moderate rows: worst failures among unflagged",
+            worst_unflagged,
+            true,
+            0.03,
+        ),
+        // 13.1 % (14.7 %, 11.4 %) → 20 %.
+        limit(
+            "polygons + Manhattan rooms 128² occluded: mean failures among unflagged",
+            occluded_unflagged,
+            true,
+            0.20,
+        ),
+        // 97.0 % → 90 %.
+        limit(
+            "symmetric + corridor, independent moderate damage: min flagged",
+            indep_moderate,
+            false,
+            0.90,
+        ),
+        // 100.0 % → 95 %.
+        limit(
+            "symmetric + corridor, clean: min flagged",
+            shared_clean,
+            false,
+            0.95,
+        ),
+        // 0.64 % → 1.0 %.
+        limit(
+            "polygons 128² moderate: scale error p90",
+            field(&poly128, |s| s.scale_p90),
+            true,
+            0.010,
+        ),
+        // 0.26 px → 0.5 px.
+        limit(
+            "polygons 128² moderate: translation p90 px",
+            field(&poly128, |s| s.translation_p90_px),
+            true,
+            0.5,
+        ),
+        // 0.36 px → 0.6 px.
+        limit(
+            "Manhattan rooms 128² moderate: translation p90 px",
+            field(&manh128, |s| s.translation_p90_px),
+            true,
+            0.6,
+        ),
+        // 0.13 px → 0.25 px.
+        limit(
+            "polygons 128² moderate, scale 1: translation median px",
+            field(&poly128_unit, |s| s.translation_median_px),
+            true,
+            0.25,
+        ),
+    ]
+}
+
+/// Prints every limit of [`limits`] with its figure; returns how many were
+/// crossed (a NaN figure, a row not run, counts as crossed).
+fn check_limits(results: &[(Row, Vec<Outcome>)]) -> usize {
+    let mut failed = 0;
+    eprintln!("accuracy --check (improved mode, limits set on the --quick run):");
+    for l in limits(results) {
+        let ok = if l.at_most {
+            l.measured <= l.limit
+        } else {
+            l.measured >= l.limit
+        };
+        failed += usize::from(!ok);
+        eprintln!(
+            "  {} {}: {:.4} (limit {} {:.4})",
+            if ok { "ok  " } else { "FAIL" },
+            l.what,
+            l.measured,
+            if l.at_most { "≤" } else { "≥" },
+            l.limit
+        );
+    }
+    failed
 }

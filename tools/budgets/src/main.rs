@@ -20,7 +20,8 @@
 //! `<!-- budgets:end -->` when both markers are there. With `--check` it
 //! writes nothing in `budgets/` (the measurement goes to
 //! `target/budgets/measured.json`) and fails when a value grew by more than
-//! 10 % over `budgets/budgets.json`. Both fail on a wrong estimate.
+//! 10 % over `budgets/budgets.json` or a metric of `budgets/budgets.json` is
+//! missing from the measurement. Both fail on a wrong estimate.
 //! `bash tools/budgets.sh` builds the tools and runs `report`.
 //!
 //! `profile` runs a bench ELF (as `report` leaves them in

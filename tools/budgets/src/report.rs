@@ -625,8 +625,9 @@ fn table(header: &[&str], rows: &[Vec<String>]) -> String {
 }
 
 /// Compares `measured` with the committed `budget` body: every checked value
-/// may grow by at most [`TOLERANCE`], and a configuration that fitted must
-/// still fit. Returns the regressions.
+/// may grow by at most [`TOLERANCE`], a configuration that fitted must
+/// still fit, and every metric of the budget must be in the measurement.
+/// Returns the regressions.
 pub fn check(budget: &Value, measured: &Map<String, Value>) -> Vec<String> {
     let mut regressions = Vec::new();
     let Some(budget) = budget["targets"].as_object() else {
@@ -640,6 +641,13 @@ pub fn check(budget: &Value, measured: &Map<String, Value>) -> Vec<String> {
             };
             if allowed["fits"] == Value::Bool(true) && now["fits"] == Value::Bool(false) {
                 regressions.push(format!("{triple} {key}: no longer fits"));
+            }
+            // A metric of the budget file that the new measurement lacks (or
+            // left null) is a failure, not a metric skipped (issue 14 item 5).
+            for (metric, value) in allowed.as_object().into_iter().flatten() {
+                if !value.is_null() && now.get(metric).is_none_or(Value::is_null) {
+                    regressions.push(format!("{triple} {key}: {metric} not measured any more"));
+                }
             }
             for metric in CHECKED {
                 let (Some(limit), Some(value)) = (allowed[metric].as_f64(), now[metric].as_f64())
@@ -680,6 +688,22 @@ mod tests {
         let bad =
             json!({"t": {"k": {"fits": false, "flash_library": 1101, "stack_estimate": 100}}});
         assert_eq!(check(&budget, bad.as_object().unwrap()).len(), 2);
+    }
+
+    #[test]
+    fn check_fails_on_a_metric_missing_from_the_measurement() {
+        let budget = json!({"targets": {"t": {"k": {"fits": true, "flash_library": 1000, "stack_estimate": 100}}}});
+        let missing = json!({"t": {"k": {"fits": true, "flash_library": 1000}}});
+        let found = check(&budget, missing.as_object().unwrap());
+        assert_eq!(found, ["t k: stack_estimate not measured any more"]);
+        let null =
+            json!({"t": {"k": {"fits": true, "flash_library": 1000, "stack_estimate": null}}});
+        assert_eq!(check(&budget, null.as_object().unwrap()).len(), 1);
+        let no_fits = json!({"t": {"k": {"flash_library": 1000, "stack_estimate": 100}}});
+        assert_eq!(check(&budget, no_fits.as_object().unwrap()).len(), 1);
+        // Extra metrics in the measurement are fine.
+        let more = json!({"t": {"k": {"fits": true, "flash_library": 1000, "stack_estimate": 100, "new": 1}}});
+        assert!(check(&budget, more.as_object().unwrap()).is_empty());
     }
 
     #[test]

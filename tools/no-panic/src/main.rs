@@ -395,9 +395,21 @@ pub extern "C" fn _start() -> ! {
     entry_translation();
     entry_angle();
     entry_config();
+    #[cfg(feature = "negative-control")]
+    entry_negative_control();
     loop {
         core::hint::spin_loop();
     }
+}
+
+/// The negative control (`--features negative-control`): indexes a table
+/// with an index the optimiser cannot see, so a bounds-check panic stays in
+/// the binary and the strict link must fail.
+#[cfg(feature = "negative-control")]
+#[inline(never)]
+fn entry_negative_control() {
+    let table = opaque([0u8; 4]);
+    opaque(table[opaque(4usize)]);
 }
 
 #[cfg(feature = "strict")]
