@@ -20,6 +20,7 @@ pub mod log;
 pub mod mcu;
 pub mod plot;
 pub mod scans;
+pub mod stats;
 pub mod summary;
 
 use std::fmt;

@@ -29,6 +29,26 @@
 use std::fmt::Write as _;
 
 use super::scans::{wrap_deg, PairEstimate, PairRecord, Truth};
+use super::stats::{markdown_header, markdown_row, quantile};
+
+/// The columns of [`Summary::table`].
+const COLUMNS: [&str; 15] = [
+    "subset",
+    "method",
+    "pairs",
+    "median °",
+    "p90 °",
+    "≤ 2°",
+    "median ° ≤ 2°",
+    "flips",
+    "flagged",
+    "fail unflagged (> 5°)",
+    "of which fit better",
+    "t median m",
+    "t p90 m",
+    "t > 0.3 m",
+    "t unobs.",
+];
 
 /// A method compared in the summary.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -140,11 +160,7 @@ impl Summary {
 
     /// The table (Markdown), one row per subset × method.
     pub fn table(&self) -> String {
-        let mut out = String::new();
-        out.push_str(
-            "| subset | method | pairs | median ° | p90 ° | ≤ 2° | median ° ≤ 2° | flips | flagged | fail unflagged (> 5°) | of which fit better | t median m | t p90 m | t > 0.3 m | t unobs. |\n\
-             |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
-        );
+        let mut out = markdown_header(&COLUMNS);
         type Filter = fn(&Row) -> bool;
         let subsets: [(&str, Filter); 4] = [
             ("all", |_| true),
@@ -180,20 +196,19 @@ impl Summary {
 fn line(subset: &str, method: Method, outcomes: &[Outcome]) -> String {
     let n = outcomes.len();
     if n == 0 {
-        return format!(
-            "| {subset} | {} | 0 | – | – | – | – | – | – | – | – | – | – | – | – |\n",
-            method.name()
-        );
+        let mut cells = vec![subset, method.name(), "0"];
+        cells.resize(COLUMNS.len(), "–");
+        return markdown_row(&cells);
     }
-    let mut errors: Vec<f64> = outcomes.iter().map(|o| o.error_deg).collect();
+    let errors: Vec<f64> = outcomes.iter().map(|o| o.error_deg).collect();
     let share = |count: usize| format!("{:.1} %", 100.0 * count as f64 / n as f64);
     let within = outcomes.iter().filter(|o| o.error_deg <= 2.0).count();
     let flips = outcomes.iter().filter(|o| o.error_deg >= 175.0).count();
-    let mut close: Vec<f64> = errors.iter().copied().filter(|&e| e <= 2.0).collect();
+    let close: Vec<f64> = errors.iter().copied().filter(|&e| e <= 2.0).collect();
     let close_median = if close.is_empty() {
         "–".to_string()
     } else {
-        format!("{:.3}", quantile(&mut close, 0.5))
+        format!("{:.3}", quantile(&close, 0.5))
     };
     let (flagged, unflagged_fail, fit_better) = if method == Method::Zero {
         ("–".to_string(), "–".to_string(), "–".to_string())
@@ -215,7 +230,7 @@ fn line(subset: &str, method: Method, outcomes: &[Outcome]) -> String {
         let better = outcomes.iter().filter(|o| o.fits_better).count();
         (share(flagged), fail, format!("{better}/{fails}"))
     };
-    let mut t: Vec<f64> = outcomes
+    let t: Vec<f64> = outcomes
         .iter()
         .filter_map(|o| o.translation_error)
         .collect();
@@ -230,8 +245,8 @@ fn line(subset: &str, method: Method, outcomes: &[Outcome]) -> String {
         ("–".to_string(), "–".to_string())
     } else {
         (
-            format!("{:.3}", quantile(&mut t, 0.5)),
-            format!("{:.3}", quantile(&mut t, 0.9)),
+            format!("{:.3}", quantile(&t, 0.5)),
+            format!("{:.3}", quantile(&t, 0.9)),
         )
     };
     let t_off = if method == Method::Zero || t.is_empty() {
@@ -244,14 +259,23 @@ fn line(subset: &str, method: Method, outcomes: &[Outcome]) -> String {
             t.len()
         )
     };
-    format!(
-        "| {subset} | {} | {n} | {:.2} | {:.2} | {} | {close_median} | {} | {flagged} | {unflagged_fail} | {fit_better} | {t_median} | {t_p90} | {t_off} | {unobservable} |\n",
-        method.name(),
-        quantile(&mut errors, 0.5),
-        quantile(&mut errors, 0.9),
+    markdown_row(&[
+        subset.to_string(),
+        method.name().to_string(),
+        n.to_string(),
+        format!("{:.2}", quantile(&errors, 0.5)),
+        format!("{:.2}", quantile(&errors, 0.9)),
         share(within),
+        close_median,
         share(flips),
-    )
+        flagged,
+        unflagged_fail,
+        fit_better,
+        t_median,
+        t_p90,
+        t_off,
+        unobservable,
+    ])
 }
 
 /// Share of scan-2 points within 0.1 m of a scan-1 point when mapped by the
@@ -285,27 +309,4 @@ fn fits_better_than_truth(
     };
     aligned_share(pair, dtheta_deg.to_radians(), d)
         > aligned_share(pair, truth.dtheta, (truth.dx, truth.dy))
-}
-
-/// The `q`-quantile (nearest rank) of `values` (sorted in place).
-pub fn quantile(values: &mut [f64], q: f64) -> f64 {
-    if values.is_empty() {
-        return f64::NAN;
-    }
-    values.sort_by(|a, b| a.total_cmp(b));
-    let rank = ((q * values.len() as f64).ceil() as usize).clamp(1, values.len());
-    values[rank - 1]
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn quantile_is_nearest_rank() {
-        let mut v = vec![5.0, 1.0, 4.0, 2.0, 3.0];
-        assert_eq!(quantile(&mut v, 0.5), 3.0);
-        assert_eq!(quantile(&mut v, 0.9), 5.0);
-        assert!(quantile(&mut [], 0.5).is_nan());
-    }
 }

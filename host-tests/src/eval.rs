@@ -1,6 +1,6 @@
 //! Shared helpers of the evaluations (accuracy binary, property tests,
 //! benchmarks): image ↔ grid conversion, one seeded trial, error measures and
-//! order statistics.
+//! their summary (quantiles: [`crate::stats`]).
 //!
 //! A *trial* draws a scene of one [`SceneKind`], a random [`Transform`]
 //! (α uniform over the full circle, translation 2 px … 10 % of the image side,
@@ -16,6 +16,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::reference::Image;
 use crate::scene::{render_pair, Damage, Pair, Point, Scene, SceneKind, Segment, Transform};
+use crate::stats::quantile;
 
 /// Gross failure: error above this, degrees (full circle).
 pub const GROSS_DEG: f64 = 5.0;
@@ -301,26 +302,13 @@ pub fn run_pair<
     outcome(&estimate, truth, half_turn_symmetric)
 }
 
-/// The `q`-quantile (`q ∈ [0, 1]`) of `values` by linear interpolation
-/// between order statistics; NaN for an empty slice.
-pub fn quantile(values: &[f64], q: f64) -> f64 {
-    if values.is_empty() {
-        return f64::NAN;
-    }
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    let pos = q.clamp(0.0, 1.0) * (v.len() - 1) as f64;
-    let lo = pos.floor() as usize;
-    let hi = pos.ceil() as usize;
-    v[lo] + (pos - lo as f64) * (v[hi] - v[lo])
-}
-
 /// Summary of a set of outcomes (one table row).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Summary {
     /// Number of trials.
     pub trials: usize,
-    /// Median error, degrees.
+    /// Median error, degrees (this and every percentile below:
+    /// [`crate::stats::quantile`], nearest rank).
     pub median_deg: f64,
     /// 90th percentile of the error, degrees.
     pub p90_deg: f64,

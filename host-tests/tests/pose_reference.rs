@@ -14,6 +14,7 @@ use host_tests::eval::wall_to_wall_corridor;
 use host_tests::pose_reference::{pose, Pose};
 use host_tests::reference::Image;
 use host_tests::scene::{render_pair, Damage, Scene, SceneKind, Transform};
+use host_tests::stats::quantile;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::TAU;
@@ -53,13 +54,9 @@ fn errors(truth: &Transform, p: &Pose) -> (f64, f64) {
     (dx.hypot(dy), (p.scale / truth.scale - 1.0).abs())
 }
 
-fn quantile(sorted: &[f64], q: f64) -> f64 {
-    sorted[((sorted.len() - 1) as f64 * q).round() as usize]
-}
-
-fn summary(mut v: Vec<f64>) -> (f64, f64, f64) {
-    v.sort_by(f64::total_cmp);
-    (quantile(&v, 0.5), quantile(&v, 0.9), *v.last().unwrap())
+/// Median, p90 and maximum.
+fn summary(v: Vec<f64>) -> (f64, f64, f64) {
+    (quantile(&v, 0.5), quantile(&v, 0.9), quantile(&v, 1.0))
 }
 
 /// Error distributions over 300 seeds for each of clean / moderate damage and

@@ -888,7 +888,7 @@ fn scales_far_from_one_are_recovered() {
 fn verified_accuracy_meets_the_targets() {
     type E = hough_heading::estimator!(128, 128, 360);
     type G = hough_heading::grid!(128, 128);
-    let quantile = host_tests::eval::quantile;
+    let quantile = host_tests::stats::quantile;
     for (kind, with_scale) in [
         (SceneKind::RandomPolygon, false),
         (SceneKind::ManhattanRoom, false),

@@ -19,7 +19,7 @@ use plotters::prelude::*;
 use super::{Kept, Pose};
 use crate::plot::{register_font, FONT};
 use crate::scans::PairEstimate;
-use crate::summary::quantile;
+use crate::stats::quantile;
 use crate::Fatal;
 
 /// Most scan points kept for the figure (the scans are thinned evenly).
@@ -188,14 +188,14 @@ impl Trajectory {
         let log = track(|s| s.log_pose);
         // The tracks and the bulk of the points (2nd to 98th percentile on
         // each axis: a few far returns would shrink the map to a dot).
-        let mut xs: Vec<f64> = self.points.iter().map(|p| p.0).collect();
-        let mut ys: Vec<f64> = self.points.iter().map(|p| p.1).collect();
+        let xs: Vec<f64> = self.points.iter().map(|p| p.0).collect();
+        let ys: Vec<f64> = self.points.iter().map(|p| p.1).collect();
         let bulk: Vec<(f64, f64)> = if xs.is_empty() {
             Vec::new()
         } else {
             vec![
-                (quantile(&mut xs, 0.02), quantile(&mut ys, 0.02)),
-                (quantile(&mut xs, 0.98), quantile(&mut ys, 0.98)),
+                (quantile(&xs, 0.02), quantile(&ys, 0.02)),
+                (quantile(&xs, 0.98), quantile(&ys, 0.98)),
             ]
         };
         let all = estimated.iter().chain(&odom).chain(&log).chain(&bulk);

@@ -34,11 +34,12 @@ use std::time::Instant;
 
 use clap::Parser;
 use host_tests::eval::{
-    angle_error_deg, axis_error_deg, grid_from_image, parallel_map, quantile, run_pair, trial_pair,
+    angle_error_deg, axis_error_deg, grid_from_image, parallel_map, run_pair, trial_pair,
     trial_pair_independent, trial_seed, unobservable_direction, wall_to_wall_corridor, Outcome,
     Summary, GROSS_DEG,
 };
 use host_tests::scene::{render_pair, Damage, SceneKind, Transform};
+use host_tests::stats::{markdown_header, markdown_row, quantile};
 use hough_heading::{
     half_turn_steps, pyramid_words, rho_bins, row_words, Estimator, Mode, ScaleRange, Score,
     Status, Thresholds,
@@ -249,9 +250,23 @@ fn num(v: f64, digits: usize) -> String {
 }
 
 fn table_header() -> String {
-    "| scene | size | damage | scale | mode | median ° | p90 ° | fail > 5° | wrong half-turn | flagged | fail among unflagged | t median px | t p90 px | s error median | s error p90 |\n\
-     |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
-        .into()
+    markdown_header(&[
+        "scene",
+        "size",
+        "damage",
+        "scale",
+        "mode",
+        "median °",
+        "p90 °",
+        "fail > 5°",
+        "wrong half-turn",
+        "flagged",
+        "fail among unflagged",
+        "t median px",
+        "t p90 px",
+        "s error median",
+        "s error p90",
+    ])
 }
 
 /// Which pipeline a table line shows.
@@ -265,18 +280,21 @@ enum Pipeline {
 fn table_line(row: &Row, pipeline: Pipeline, s: &Summary) -> String {
     let symmetric = row.kind.is_centrally_symmetric();
     let translation = pipeline != Pipeline::Paper;
-    format!(
-        "| {}{} | {}² | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
-        row.kind.name(),
-        if row.independent { " (indep.)" } else { "" },
-        row.size,
-        row.damage.0,
-        if row.with_scale { "0.9–1.1" } else { "1" },
+    markdown_row(&[
+        format!(
+            "{}{}",
+            row.kind.name(),
+            if row.independent { " (indep.)" } else { "" }
+        ),
+        format!("{}²", row.size),
+        row.damage.0.to_string(),
+        if row.with_scale { "0.9–1.1" } else { "1" }.into(),
         match pipeline {
             Pipeline::Paper => "paper",
             Pipeline::Unverified => "improved, no verification",
             Pipeline::Verified => "**improved**",
-        },
+        }
+        .into(),
         num(s.median_deg, 3),
         num(s.p90_deg, 3),
         pct(s.failures),
@@ -307,7 +325,7 @@ fn table_line(row: &Row, pipeline: Pipeline, s: &Summary) -> String {
         } else {
             "–".into()
         },
-    )
+    ])
 }
 
 /// A small share with two decimals (scale errors).
