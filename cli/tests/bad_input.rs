@@ -91,8 +91,12 @@ fn assert_fails(out: &Output, code: i32, needles: &[&str], what: &str) {
     }
 }
 
-/// A 64×64 P1 image of an irregular polygon outline.
+/// A 64×64 P1 image of an irregular polygon outline (pixels, centred),
+/// turned `rotate_deg` counter-clockwise: drawn by the test kit's scene
+/// renderer, undamaged.
 fn polygon_pbm(rotate_deg: f64) -> Vec<u8> {
+    use host_tests::scene::{self, Damage, PbmFormat, Point, Scene, Transform};
+    use rand::SeedableRng;
     let v = [
         (-20.0, -15.0),
         (18.0, -19.0),
@@ -100,27 +104,18 @@ fn polygon_pbm(rotate_deg: f64) -> Vec<u8> {
         (0.0, 9.0),
         (-6.0, 25.0),
         (-24.0, 15.0),
-    ];
-    let (s, c) = rotate_deg.to_radians().sin_cos();
-    let mut cells = vec![false; 64 * 64];
-    for i in 0..v.len() {
-        let (a, b) = (v[i], v[(i + 1) % v.len()]);
-        for j in 0..=200 {
-            let f = j as f64 / 200.0;
-            let (x, y) = (a.0 + f * (b.0 - a.0), a.1 + f * (b.1 - a.1));
-            let (x, y) = (c * x - s * y, s * x + c * y);
-            let (col, row) = ((x + 32.0) as usize, (32.0 - y) as usize);
-            if col < 64 && row < 64 {
-                cells[row * 64 + col] = true;
-            }
-        }
-    }
-    let mut out = String::from("P1\n64 64\n");
-    for row in cells.chunks(64) {
-        out.extend(row.iter().map(|&b| if b { '1' } else { '0' }));
-        out.push('\n');
-    }
-    out.into_bytes()
+    ]
+    .map(|(x, y)| Point::new(x, y));
+    let turn = Transform {
+        alpha_rad: rotate_deg.to_radians(),
+        tx: 0.0,
+        ty: 0.0,
+        scale: 1.0,
+    };
+    let polygon = Scene::polygon(&v).transformed(&turn);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+    let rendered = scene::render(&polygon, &Damage::CLEAN, 64, 64, &mut rng);
+    scene::to_pbm(&rendered.image, PbmFormat::Ascii)
 }
 
 /// A PNG of `width × height` with grey levels from `f(col, row)`.
