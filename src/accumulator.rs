@@ -11,27 +11,8 @@
 //! `(|x| + |y|) · 2⁻¹⁶ ≤ 0.006` pixel at 256², so a vote changes bin only when
 //! the exact ρ lies that close to a bin edge.
 
+use crate::grid::Grid;
 use crate::trig::TrigTable;
-use crate::Grid;
-
-/// Largest number of votes any single bin can receive for a `width × height`
-/// grid (a compile-time bound, checked against `u16`).
-///
-/// Proof: a bin is a strip of width 1 across the grid. If `|sin θ| ≥ 1/√2` each
-/// of the `W` pixel columns meets the strip in an interval of length
-/// `1/|sin θ| ≤ √2`, which holds at most 2 pixel centres; otherwise each of the
-/// `H` pixel rows does. So a bin holds at most `2 · max(W, H)` votes, and never
-/// more than `W · H`.
-pub const fn max_votes_per_bin(width: usize, height: usize) -> usize {
-    let side = if width > height { width } else { height };
-    let strip = 2 * side;
-    let all = width * height;
-    if strip < all {
-        strip
-    } else {
-        all
-    }
-}
 
 /// One accumulator column: vote counts per ρ bin.
 pub type Column<const RHO: usize> = [u16; RHO];
@@ -255,9 +236,41 @@ impl<const HALF: usize, const RHO: usize> Accumulator<HALF, RHO> {
     }
 }
 
+/// Votes column `m ∈ [0, N)` of image 2 into `column` (zeroed first) with
+/// split votes at `ρ · inv_scale`: columns `m ≥ HALF` are the mirror of
+/// `m − HALF`.
+pub(crate) fn vote_profile_column<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+>(
+    grid: &Grid<W, H, RW>,
+    m: usize,
+    inv_scale_q16: u32,
+    column: &mut Column<RHO>,
+) {
+    column.fill(0);
+    vote_column_split::<W, H, RW, N, RHO>(grid, m % HALF, inv_scale_q16, column);
+    if m >= HALF {
+        mirror(column);
+    }
+}
+
+/// Reverses a column in place about its centre: `b ↔ RHO − b` (θ → θ + π).
+pub(crate) fn mirror<const RHO: usize>(column: &mut Column<RHO>) {
+    // Bins 1..RHO: reversing that slice maps b to RHO − b.
+    if let Some(tail) = column.get_mut(1..) {
+        tail.reverse();
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::max_votes_per_bin;
 
     #[test]
     fn vote_bound_holds_for_a_full_grid() {
@@ -289,5 +302,15 @@ mod tests {
         assert_eq!(acc.get(4, 8 + 1), 8);
         // θ = 270°: ρ = −0.5, the mirror bin.
         assert_eq!(acc.get(12, 8 - 1), 8);
+    }
+
+    #[test]
+    fn mirror_maps_b_to_rho_minus_b() {
+        let mut c = [0u16; 8];
+        c[1] = 1;
+        c[3] = 3;
+        c[4] = 4;
+        mirror(&mut c);
+        assert_eq!(c, [0, 0, 0, 0, 4, 3, 0, 1]);
     }
 }

@@ -3,7 +3,6 @@
 #![doc = include_str!("../README.md")]
 
 mod accumulator;
-mod align;
 mod angle;
 mod config;
 mod correlation;
@@ -11,39 +10,43 @@ mod direction;
 mod error;
 mod estimate;
 mod grid;
+mod math;
+mod motion;
+mod pose;
+mod profile;
 mod reference;
-mod scale;
 mod scan;
 mod signature;
-mod translation;
 mod trig;
 
 pub use accumulator::{
-    max_votes_per_bin, vote_column, vote_column_pair, vote_column_split, Accumulator, Column,
-    MAX_INV_SCALE_Q16, SPLIT_VOTE_BITS, UNIT_SCALE_Q16,
+    vote_column, vote_column_pair, vote_column_split, Accumulator, Column, MAX_INV_SCALE_Q16,
+    SPLIT_VOTE_BITS, UNIT_SCALE_Q16,
 };
-pub use align::{align_points, icp_points, pyramid_levels, pyramid_words, ALIGN_POINTS};
 pub use angle::Angle;
-pub use config::{half_turn_steps, recommended_n_theta, rho_bins, row_words};
-pub use correlation::{Correlation, Peak, MAX_PEAKS};
-pub use direction::{
-    match_profile, match_profile_near, paper_asymmetry, ProfileMatch, RunnerUp, RUNNERS_UP,
-    RUNNER_UP_SEPARATION,
+pub use config::{
+    align_points, half_turn_steps, icp_points, max_votes_per_bin, pyramid_levels, pyramid_words,
+    recommended_n_theta, rho_bins, row_words, ALIGN_POINTS,
 };
+pub use correlation::{Correlation, Peak, MAX_PEAKS};
+pub use direction::{paper_asymmetry, HalfTurn, HalfTurnTest};
 pub use error::Error;
 pub use estimate::{
-    Candidate, Estimate, Estimator, HalfTurn, HalfTurnTest, Mode, Prior, Status, Thresholds,
-    MAX_CANDIDATES,
+    Candidate, Estimate, Estimator, Mode, Prior, Status, Thresholds, MAX_CANDIDATES,
 };
 pub use grid::Grid;
+pub use motion::Motion;
+pub use pose::scale::{ScaleRange, MAX_COARSE_STEPS};
+pub use pose::{fit_translation, ColumnShift, Translation, WeightedShift, MAX_FIT_COLUMNS};
+pub use profile::{
+    match_profile, match_profile_near, ProfileMatch, RunnerUp, RUNNERS_UP, RUNNER_UP_SEPARATION,
+};
 pub use reference::{Profile, Reference, PROFILE_COLUMNS, REFERENCE_FORMAT};
-pub use scale::{ScaleRange, MAX_COARSE_STEPS};
 pub use scan::{
-    range_percentile, Motion, Raster, Scan, ScanStats, SensorOffset, AUTO_MAX_RADIUS_M,
-    AUTO_MIN_RADIUS_M, AUTO_PERCENTILE,
+    range_percentile, Raster, Scan, ScanStats, SensorOffset, AUTO_MAX_RADIUS_M, AUTO_MIN_RADIUS_M,
+    AUTO_PERCENTILE,
 };
 pub use signature::{ColumnStats, PeakKind, Signature, ASYMMETRY_FRACTION_BITS};
-pub use translation::{fit_translation, ColumnShift, Translation, WeightedShift, MAX_FIT_COLUMNS};
 pub use trig::{TrigTable, TRIG_FRACTION_BITS};
 
 /// Scores (correlations, margins, confidence) in Q16.16.

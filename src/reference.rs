@@ -5,8 +5,9 @@
 
 use crate::accumulator::{vote_column_split, Column, UNIT_SCALE_Q16};
 use crate::correlation::circular_distance;
+use crate::error::Error;
+use crate::grid::Grid;
 use crate::signature::{PeakKind, Signature};
-use crate::{Error, Grid};
 
 /// How many θ columns of the reference keep their ρ-profile.
 pub const PROFILE_COLUMNS: usize = 4;

@@ -12,7 +12,9 @@
 use fixed::types::I16F16;
 use micromath::F32Ext;
 
-use crate::direction::RUNNERS_UP;
+use crate::math::sqrt_f32_fast as sqrt;
+
+use crate::profile::RUNNERS_UP;
 
 /// The shift of one column, as measured by the profile match.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -174,19 +176,6 @@ impl Translation {
             unobservable: self.unobservable,
         }
     }
-}
-
-/// `√v` to f32 precision: `micromath`'s estimate (≈ 5 % error) refined by
-/// two Newton steps (relative error squared each step). 0 for `v ≤ 0`.
-fn sqrt(v: f32) -> f32 {
-    if v.is_nan() || v <= 0.0 {
-        return 0.0;
-    }
-    let mut r = F32Ext::sqrt(v);
-    for _ in 0..2 {
-        r = 0.5 * (r + v / r);
-    }
-    r
 }
 
 /// Q16.16 from `f32`, saturating; NaN → 0 (never panics).
