@@ -11,8 +11,27 @@
 //! `(|x| + |y|) · 2⁻¹⁶ ≤ 0.006` pixel at 256², so a vote changes bin only when
 //! the exact ρ lies that close to a bin edge.
 
+use crate::config::{check_grid, rho_bins};
 use crate::grid::Grid;
 use crate::trig::TrigTable;
+
+/// Compile-time check of a column vote's sizes: the grid's (`RW`), an even
+/// `N ≥ 8`, and `RHO = rho_bins(W, H)` (the vote mask needs that power of
+/// two: another `RHO` would put votes in the wrong bins silently).
+const fn check_column<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const RHO: usize,
+>() {
+    check_grid(W, H, RW);
+    assert!(N >= 8 && N % 2 == 0, "N_THETA must be even and at least 8");
+    assert!(
+        RHO == rho_bins(W, H),
+        "RHO must equal hough_heading::config::rho_bins(W, H)"
+    );
+}
 
 /// One accumulator column: vote counts per ρ bin.
 pub type Column<const RHO: usize> = [u16; RHO];
@@ -43,6 +62,7 @@ pub fn vote_column<
     k: usize,
     column: &mut Column<RHO>,
 ) {
+    const { check_column::<W, H, RW, N, RHO>() };
     let table = &TrigTable::<N>::TABLE;
     let (c, s) = (table.cos(k), table.sin(k));
     let step = 2 * c;
@@ -105,6 +125,7 @@ pub fn vote_column_split<
     inv_scale_q16: u32,
     column: &mut Column<RHO>,
 ) {
+    const { check_column::<W, H, RW, N, RHO>() };
     let table = &TrigTable::<N>::TABLE;
     let inv_scale = i64::from(inv_scale_q16.min(MAX_INV_SCALE_Q16));
     // Q15 × Q16 → Q15, |result| ≤ 2¹⁶.
@@ -159,6 +180,7 @@ pub fn vote_column_pair<
     first: &mut Column<RHO>,
     second: &mut Column<RHO>,
 ) {
+    const { check_column::<W, H, RW, N, RHO>() };
     let table = &TrigTable::<N>::TABLE;
     let (c1, s1) = (table.cos(k), table.sin(k));
     let (c2, s2) = (table.cos(k + 1), table.sin(k + 1));

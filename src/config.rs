@@ -179,11 +179,11 @@ pub(crate) const fn check_config(
     assert!(n_theta <= 4096, "N_THETA must be at most 4096");
     assert!(
         half == half_turn_steps(n_theta),
-        "HALF must equal hough_heading::half_turn_steps(N_THETA) = N_THETA / 2"
+        "HALF must equal hough_heading::config::half_turn_steps(N_THETA) = N_THETA / 2"
     );
     assert!(
         rho == rho_bins(width, height),
-        "RHO must equal hough_heading::rho_bins(W, H)"
+        "RHO must equal hough_heading::config::rho_bins(W, H)"
     );
     // Two-bin peaks (A[b] + A[b+1]) must fit the u16 signature.
     assert!(
@@ -196,7 +196,7 @@ pub(crate) const fn check_config(
 pub(crate) const fn check_pyramid(width: usize, height: usize, pyramid_words_param: usize) {
     assert!(
         pyramid_words_param == pyramid_words(width, height),
-        "PW must equal hough_heading::pyramid_words(W, H)"
+        "PW must equal hough_heading::config::pyramid_words(W, H)"
     );
 }
 
@@ -208,7 +208,7 @@ pub(crate) const fn check_grid(width: usize, height: usize, row_words_param: usi
     );
     assert!(
         row_words_param == row_words(width),
-        "ROW_WORDS must equal hough_heading::row_words(W) = W.div_ceil(32)"
+        "ROW_WORDS must equal hough_heading::config::row_words(W) = W.div_ceil(32)"
     );
 }
 

@@ -38,10 +38,11 @@ use std::io::Write;
 
 use host_tests::cli;
 use hough_heading::{
-    fit_translation, match_profile, paper_asymmetry, range_percentile, rho_bins, row_words, Angle,
-    ColumnShift, ColumnStats, Correlation, Estimate, Estimator, Grid, Mode, PeakKind, Prior,
-    Raster, Reference, ScaleRange, Scan, Score, SensorOffset, Signature, Status, Thresholds,
-    WeightedShift, MAX_FIT_COLUMNS, RUNNERS_UP,
+    config::rho_bins, config::row_words, stages::fit_translation, stages::match_profile,
+    stages::paper_asymmetry, stages::range_percentile, stages::ColumnShift, stages::ColumnStats,
+    stages::Correlation, stages::PeakKind, stages::Signature, stages::WeightedShift,
+    stages::MAX_FIT_COLUMNS, stages::RUNNERS_UP, Angle, Estimate, Estimator, Grid, Mode, Prior,
+    Raster, Reference, ScaleRange, Scan, Score, SensorOffset, Status, Thresholds,
 };
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
@@ -329,9 +330,9 @@ macro_rules! sized {
             $h,
             { row_words($w) },
             $n,
-            { hough_heading::half_turn_steps($n) },
+            { hough_heading::config::half_turn_steps($n) },
             { rho_bins($w, $h) },
-            { hough_heading::pyramid_words($w, $h) },
+            { hough_heading::config::pyramid_words($w, $h) },
         >
     };
 }
@@ -357,7 +358,7 @@ fn fuzz_reference_from_bytes() {
     const HALF: usize = 64;
     const RHO: usize = rho_bins(64, 64);
     type R = Reference<64, 64, 2, HALF, RHO>;
-    type E = Estimator<64, 64, 2, 128, HALF, RHO, { hough_heading::pyramid_words(64, 64) }>;
+    type E = Estimator<64, 64, 2, 128, HALF, RHO, { hough_heading::config::pyramid_words(64, 64) }>;
     // Arbitrary bytes of any length around the format's size.
     fuzz(
         "Reference::from_bytes arbitrary",
@@ -405,7 +406,7 @@ fn fuzz_reference_from_bytes() {
             bytes[R::BYTES - 4..].copy_from_slice(&sum.to_le_bytes());
             if let Ok(reference) = R::from_bytes(&bytes) {
                 accepted.set(accepted.get() + 1);
-                prop_assert!(reference.profiles().len() <= hough_heading::PROFILE_COLUMNS);
+                prop_assert!(reference.profiles().len() <= hough_heading::stages::PROFILE_COLUMNS);
                 prop_assert!(reference.profiles().iter().all(|p| p.theta < HALF));
                 let mut out = vec![0u8; R::BYTES];
                 prop_assert_eq!(reference.to_bytes(&mut out), Ok(R::BYTES));
@@ -644,7 +645,7 @@ fn fuzz_reference_versions_and_hostile_grids() {
     const RW: usize = row_words(80);
     type R = hough_heading::reference!(80, 64, 180);
     type E = hough_heading::estimator!(80, 64, 180);
-    let expected = hough_heading::REFERENCE_FORMAT;
+    let expected = hough_heading::stages::REFERENCE_FORMAT;
     fuzz(
         "Reference::from_bytes other versions",
         5000,
@@ -967,7 +968,7 @@ fn fuzz_scans() {
                 128,
                 64,
                 128,
-                { hough_heading::pyramid_words(64, 64) },
+                { hough_heading::config::pyramid_words(64, 64) },
             >::new(Mode::Improved);
             let est = e.estimate_pair(&g1, &g2);
             check(&est, false, None, Some(true))?;

@@ -29,14 +29,7 @@
 #![allow(unsafe_code)]
 
 use core::hint::black_box;
-use hough_heading::{
-    fit_translation, match_profile, match_profile_near, max_votes_per_bin, paper_asymmetry,
-    pyramid_levels, pyramid_words, range_percentile, recommended_n_theta, rho_bins, row_words,
-    vote_column, vote_column_split, Accumulator, Angle, Column, ColumnShift, ColumnStats,
-    Correlation, Error, Estimator, Grid, Mode, Peak, PeakKind, Prior, Raster, Reference,
-    ScaleRange, Scan, ScanStats, Score, SensorOffset, Signature, Thresholds, WeightedShift,
-    ALIGN_POINTS, REFERENCE_FORMAT, RUNNERS_UP,
-};
+use hough_heading::{stages::fit_translation, stages::match_profile, stages::match_profile_near, config::max_votes_per_bin, stages::paper_asymmetry, config::pyramid_levels, config::pyramid_words, stages::range_percentile, config::recommended_n_theta, config::rho_bins, config::row_words, stages::vote_column, stages::vote_column_split, stages::Accumulator, Angle, stages::Column, stages::ColumnShift, stages::ColumnStats, stages::Correlation, Error, Estimator, Grid, Mode, stages::Peak, stages::PeakKind, Prior, Raster, Reference, ScaleRange, Scan, ScanStats, Score, SensorOffset, stages::Signature, Thresholds, stages::WeightedShift, config::ALIGN_POINTS, stages::REFERENCE_FORMAT, stages::RUNNERS_UP};
 
 /// Any value of `T`, as far as the optimiser knows.
 fn opaque<T>(value: T) -> T {
@@ -294,7 +287,7 @@ fn entry_angle() {
 #[inline(never)]
 fn entry_config() {
     opaque(row_words(opaque(0)));
-    opaque(hough_heading::half_turn_steps(opaque(0)));
+    opaque(hough_heading::config::half_turn_steps(opaque(0)));
     opaque(rho_bins(opaque(0), opaque(0)));
     opaque(recommended_n_theta(opaque(0), opaque(0)));
     opaque(max_votes_per_bin(opaque(0), opaque(0)));
@@ -365,7 +358,7 @@ macro_rules! configuration {
             $h,
             { row_words($w) },
             $n,
-            { hough_heading::half_turn_steps($n) },
+            { hough_heading::config::half_turn_steps($n) },
             { rho_bins($w, $h) },
             { pyramid_words($w, $h) },
         >($bytes, $version_2)
