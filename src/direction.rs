@@ -168,8 +168,8 @@ pub(crate) fn improved<
         let direct = match_profile(&profile.counts, column, max_shift, false);
         let flipped = match_profile(&profile.counts, column, max_shift, true);
         let strength = u64::from(reference.signature().peak(profile.theta));
-        direct_sum += u64::from(direct.score_q16);
-        flipped_sum += u64::from(flipped.score_q16);
+        direct_sum += u64::from(direct.best.score_q16);
+        flipped_sum += u64::from(flipped.best.score_q16);
         // Only columns at least 30 % as strong as the strongest locate
         // the pose, weighted by score × relative strength.
         if 10 * strength >= 3 * strongest {

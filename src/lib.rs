@@ -152,9 +152,9 @@ pub mod stages {
     pub use crate::correlation::{Correlation, Peak, MAX_PEAKS};
     pub use crate::direction::paper_asymmetry;
     pub use crate::pose::scale::MAX_COARSE_STEPS;
-    pub use crate::pose::{fit_translation, ColumnShift, WeightedShift, MAX_FIT_COLUMNS};
+    pub use crate::pose::{fit_translation, ColumnShift, MAX_FIT_COLUMNS};
     pub use crate::profile::{
-        match_profile, match_profile_near, ProfileMatch, RunnerUp, RUNNERS_UP, RUNNER_UP_SEPARATION,
+        match_profile, match_profile_near, ProfileMatch, Shift, RUNNERS_UP, RUNNER_UP_SEPARATION,
     };
     pub use crate::reference::{Profile, PROFILE_COLUMNS, REFERENCE_FORMAT};
     pub use crate::scan::{

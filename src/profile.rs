@@ -9,21 +9,34 @@
 use crate::accumulator::Column;
 use crate::math::{dot_u32, parabola_vertex, sqrt_of_product};
 
+/// A ρ shift and its score: one local maximum of a profile match, or a
+/// column's candidate shift in the translation fit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Shift {
+    /// The shift `s` (bins = pixels, Q16, sub-bin by parabolic refinement)
+    /// with `Q[b + s] ≈ P[b]` (direct) or `Q[b + s] ≈ P[RHO − b]` (mirrored).
+    pub shift_q16: i32,
+    /// Q16 in [0, 1]; 0 means no such shift. From a match: the normalised
+    /// dot product there (`Σ P·Q / sqrt(ΣP² ΣQ²)`). In a [`ColumnShift`]
+    /// (the fit's weight): that times the column's strength relative to the
+    /// strongest.
+    ///
+    /// [`ColumnShift`]: crate::stages::ColumnShift
+    pub score_q16: u32,
+}
+
 /// The best alignment of a reference profile with a column.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ProfileMatch {
-    /// Normalised dot product at the best shift, Q16 in [0, 1]
-    /// (`Σ P·Q / sqrt(ΣP² ΣQ²)`).
-    pub score_q16: u32,
-    /// The shift `s` (bins = pixels, Q16, sub-bin by parabolic refinement)
-    /// with `Q[b + s] ≈ P[b]` (direct) or `Q[b + s] ≈ P[RHO − b]` (mirrored).
-    pub shift_q16: i32,
+    /// The best shift and its score.
+    pub best: Shift,
     /// The next best local maxima of the match, more than
     /// [`RUNNER_UP_SEPARATION`] shifts from the best, strongest first
     /// (score 0: none): where parallel walls repeat, the right shift may be
     /// one of these.
-    pub runners_up: [RunnerUp; RUNNERS_UP],
+    pub runners_up: [Shift; RUNNERS_UP],
 }
 
 /// How many runner-up shifts a [`ProfileMatch`] keeps.
@@ -31,16 +44,6 @@ pub const RUNNERS_UP: usize = 2;
 
 /// A runner-up shift must lie more than this many shifts from the best one.
 pub const RUNNER_UP_SEPARATION: i32 = 2;
-
-/// A local maximum of the match other than the best.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct RunnerUp {
-    /// Normalised dot product there, Q16 in [0, 1]; 0 when there is none.
-    pub score_q16: u32,
-    /// Its shift, Q16, sub-bin by parabolic refinement.
-    pub shift_q16: i32,
-}
 
 /// Matches reference profile `profile` (counts scaled to `u8`) against
 /// `column` of the second image, at every shift `|s| ≤ max_shift`, direct or
@@ -165,7 +168,7 @@ pub(crate) fn match_curve<const RHO: usize>(
     if peak == 0 {
         return none;
     }
-    let mut runners_up = [RunnerUp::default(); RUNNERS_UP];
+    let mut runners_up = [Shift::default(); RUNNERS_UP];
     let others = maxima
         .iter()
         .filter(|m| m.0 > 0 && (m.1 - s).abs() > RUNNER_UP_SEPARATION as isize);
@@ -174,7 +177,7 @@ pub(crate) fn match_curve<const RHO: usize>(
             overlap.dot(profile, column, shift - 1),
             overlap.dot(profile, column, shift + 1),
         );
-        *slot = RunnerUp {
+        *slot = Shift {
             score_q16: normalised(at, norm),
             shift_q16: ((shift as i64) << 16).saturating_add(parabola_vertex(
                 before as i64,
@@ -203,8 +206,10 @@ pub(crate) fn match_curve<const RHO: usize>(
     };
     (
         ProfileMatch {
-            score_q16: normalised(peak, norm),
-            shift_q16: ((s as i64) << 16).saturating_add(offset) as i32,
+            best: Shift {
+                shift_q16: ((s as i64) << 16).saturating_add(offset) as i32,
+                score_q16: normalised(peak, norm),
+            },
             runners_up,
         },
         curve,
@@ -311,16 +316,17 @@ mod tests {
         }
         let direct = match_profile(&p, &q, 8, false);
         let mirrored = match_profile(&p, &q, 8, true);
-        assert_eq!(direct.shift_q16 >> 16, 3);
-        assert_eq!(direct.score_q16, 1 << 16);
-        assert!(mirrored.score_q16 < direct.score_q16);
+        assert_eq!(direct.best.shift_q16 >> 16, 3);
+        assert_eq!(direct.best.score_q16, 1 << 16);
+        assert!(mirrored.best.score_q16 < direct.best.score_q16);
         // Mirrored copy: Q[b] = P[32 − b − 2] → Q[b + (−2)]... matched by the mirrored test.
         let mut m = [0u16; 32];
         for b in 2..32 {
             m[b] = u16::from(p[(32 - b + 2) % 32]);
         }
         assert!(
-            match_profile(&p, &m, 8, true).score_q16 > match_profile(&p, &m, 8, false).score_q16
+            match_profile(&p, &m, 8, true).best.score_q16
+                > match_profile(&p, &m, 8, false).best.score_q16
         );
     }
 
@@ -334,10 +340,10 @@ mod tests {
         q[12..15].copy_from_slice(&[2, 8, 2]);
         q[24..27].copy_from_slice(&[1, 5, 1]);
         let m = match_profile(&p, &q, 20, false);
-        assert_eq!(m.shift_q16, 3 << 16);
+        assert_eq!(m.best.shift_q16, 3 << 16);
         let [first, second] = m.runners_up;
         assert_eq!(first.shift_q16, 15 << 16);
-        assert!(first.score_q16 > 0 && first.score_q16 < m.score_q16);
+        assert!(first.score_q16 > 0 && first.score_q16 < m.best.score_q16);
         // Nothing else more than RUNNER_UP_SEPARATION from the best.
         assert_eq!(second.score_q16, 0);
     }

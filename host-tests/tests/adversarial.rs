@@ -941,8 +941,8 @@ fn public_functions_on_edge_arguments() {
 fn matching_functions_on_degenerate_data() {
     use hough_heading::{
         stages::fit_translation, stages::match_profile, stages::paper_asymmetry,
-        stages::ColumnShift, stages::Correlation, stages::Peak, stages::WeightedShift,
-        stages::RUNNERS_UP, HalfTurn, HalfTurnTest,
+        stages::ColumnShift, stages::Correlation, stages::Peak, stages::Shift, stages::RUNNERS_UP,
+        HalfTurn, HalfTurnTest,
     };
     const HALF: usize = 180;
     let zero = [0u16; HALF];
@@ -1002,13 +1002,16 @@ fn matching_functions_on_degenerate_data() {
             for shift in [0usize, 1, 10, RHO, isize::MAX as usize] {
                 for mirrored in [false, true] {
                     let m = match_profile(&p, &q, shift, mirrored);
-                    assert!(m.score_q16 <= 1 << 16);
+                    assert!(m.best.score_q16 <= 1 << 16);
                 }
             }
         }
     }
     let direct = match_profile(&profile, &column, 16, false);
-    assert_eq!((direct.score_q16, direct.shift_q16 >> 16), (1 << 16, 10));
+    assert_eq!(
+        (direct.best.score_q16, direct.best.shift_q16 >> 16),
+        (1 << 16, 10)
+    );
 
     // The paper's score of identical and opposite maps.
     let mut e =
@@ -1046,11 +1049,13 @@ fn matching_functions_on_degenerate_data() {
         let (sn, cs) = deg.to_radians().sin_cos();
         ColumnShift {
             normal_q15: ((cs * 32768.0) as i32, (sn * 32768.0) as i32),
-            shift_q16: s,
-            weight_q16: w,
-            runners_up: [WeightedShift {
+            best: Shift {
+                shift_q16: s,
+                score_q16: w,
+            },
+            runners_up: [Shift {
                 shift_q16: s.saturating_neg(),
-                weight_q16: w / 2,
+                score_q16: w / 2,
             }; RUNNERS_UP],
         }
     };
@@ -1076,11 +1081,13 @@ fn matching_functions_on_degenerate_data() {
     }
     let degenerate = ColumnShift {
         normal_q15: (i32::MAX, i32::MIN),
-        shift_q16: i32::MIN,
-        weight_q16: u32::MAX,
-        runners_up: [WeightedShift {
+        best: Shift {
+            shift_q16: i32::MIN,
+            score_q16: u32::MAX,
+        },
+        runners_up: [Shift {
             shift_q16: i32::MAX,
-            weight_q16: u32::MAX,
+            score_q16: u32::MAX,
         }; RUNNERS_UP],
     };
     let _ = fit_translation(&[degenerate; 5]);
@@ -1265,7 +1272,7 @@ fn match_profile_accepts_any_max_shift() {
     q[30] = 9;
     for shift in [usize::MAX, 1 << 63] {
         let m = hough_heading::stages::match_profile(&p, &q, shift, false);
-        assert_eq!(m.score_q16, 1 << 16, "max_shift {shift}");
+        assert_eq!(m.best.score_q16, 1 << 16, "max_shift {shift}");
     }
 }
 

@@ -40,7 +40,7 @@ use host_tests::cli;
 use hough_heading::{
     config::rho_bins, config::row_words, stages::fit_translation, stages::match_profile,
     stages::paper_asymmetry, stages::range_percentile, stages::ColumnShift, stages::ColumnStats,
-    stages::Correlation, stages::PeakKind, stages::Signature, stages::WeightedShift,
+    stages::Correlation, stages::PeakKind, stages::Shift, stages::Signature,
     stages::MAX_FIT_COLUMNS, stages::RUNNERS_UP, Angle, Estimate, Estimator, Grid, Mode, Prior,
     Raster, Reference, ScaleRange, Scan, Score, SensorOffset, Status, Thresholds,
 };
@@ -772,7 +772,7 @@ fn fuzz_matching_functions() {
         ),
         |(p, q, shift, mirrored)| {
             let m = match_profile(&p, &q, shift, mirrored);
-            prop_assert!(m.score_q16 <= 1 << 16);
+            prop_assert!(m.best.score_q16 <= 1 << 16);
             Ok(())
         },
     );
@@ -826,11 +826,13 @@ fn fuzz_matching_functions() {
     )
         .prop_map(|(n, s, w, r)| ColumnShift {
             normal_q15: n,
-            shift_q16: s,
-            weight_q16: w,
-            runners_up: r.map(|(shift_q16, weight_q16)| WeightedShift {
+            best: Shift {
+                shift_q16: s,
+                score_q16: w,
+            },
+            runners_up: r.map(|(shift_q16, score_q16)| Shift {
                 shift_q16,
-                weight_q16,
+                score_q16,
             }),
         });
     fuzz(

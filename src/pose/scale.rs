@@ -12,8 +12,8 @@ use crate::accumulator::{vote_profile_column, Column};
 use crate::error::Error;
 use crate::grid::Grid;
 use crate::math::parabola_vertex;
-use crate::pose::translation::{fit_best_shifts, ColumnShift, WeightedShift};
-use crate::profile::{match_curve, MatchCurve, ProfileMatch};
+use crate::pose::translation::{fit_best_shifts, ColumnShift};
+use crate::profile::{match_curve, MatchCurve, ProfileMatch, Shift};
 use crate::reference::PROFILE_COLUMNS;
 use crate::Score;
 use heapless::Vec;
@@ -160,18 +160,17 @@ impl<const RHO: usize> PoseColumn<'_, RHO> {
     pub(crate) fn shift(&self, m: ProfileMatch) -> ColumnShift {
         ColumnShift {
             normal_q15: self.normal_q15,
-            shift_q16: m.shift_q16,
-            weight_q16: self.weight(m.score_q16),
-            runners_up: m.runners_up.map(|r| WeightedShift {
-                shift_q16: r.shift_q16,
-                weight_q16: self.weight(r.score_q16),
-            }),
+            best: self.weighted(m.best),
+            runners_up: m.runners_up.map(|r| self.weighted(r)),
         }
     }
 
     /// Match score (Q16) times relative strength, Q16.
-    fn weight(&self, score_q16: u32) -> u32 {
-        ((u64::from(score_q16) * self.relative_q16) >> 16) as u32
+    fn weighted(&self, shift: Shift) -> Shift {
+        Shift {
+            shift_q16: shift.shift_q16,
+            score_q16: ((u64::from(shift.score_q16) * self.relative_q16) >> 16) as u32,
+        }
     }
 }
 
@@ -250,7 +249,7 @@ pub(crate) fn search_scale<
         if window == Window::Full && total > best_full {
             best_full = total;
             for (centre, shift) in centres.iter_mut().zip(&shifts) {
-                *centre = (shift.shift_q16 + (1 << 15)) >> 16;
+                *centre = (shift.best.shift_q16 + (1 << 15)) >> 16;
             }
         }
         total

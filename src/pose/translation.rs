@@ -14,29 +14,19 @@ use micromath::F32Ext;
 
 use crate::math::sqrt_f32_fast as sqrt;
 
-use crate::profile::RUNNERS_UP;
+use crate::profile::{Shift, RUNNERS_UP};
 
 /// The shift of one column, as measured by the profile match.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ColumnShift {
     /// Unit normal `(cos ψ, sin ψ)` of the column in image 2, Q15.
     pub normal_q15: (i32, i32),
-    /// Shift `s` in pixels, Q16.
-    pub shift_q16: i32,
-    /// Weight (match score), Q16 in [0, 1].
-    pub weight_q16: u32,
-    /// The match's runner-up shifts, weighted like `weight_q16` (weight 0:
-    /// none): the fit may pick one where the best shifts disagree.
-    pub runners_up: [WeightedShift; RUNNERS_UP],
-}
-
-/// A candidate shift of a column and its weight.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct WeightedShift {
-    /// Shift in pixels, Q16.
-    pub shift_q16: i32,
-    /// Weight, Q16 in [0, 1]; 0 means no candidate.
-    pub weight_q16: u32,
+    /// The best shift `s` (pixels, Q16) and its weight (`score_q16`: match
+    /// score times relative strength, Q16 in [0, 1]).
+    pub best: Shift,
+    /// The match's runner-up shifts, weighted like `best` (score 0: none):
+    /// the fit may pick one where the best shifts disagree.
+    pub runners_up: [Shift; RUNNERS_UP],
 }
 
 /// The rest of the pose after the rotation: translation `t` (pixels, in the
@@ -191,10 +181,10 @@ const CANDIDATES: Choice = 1 + RUNNERS_UP as Choice;
 /// when dropped, absent or of zero weight.
 fn candidate(c: &ColumnShift, choice: Choice) -> Option<(f32, f32)> {
     let (shift_q16, weight_q16) = match choice {
-        0 => (c.shift_q16, c.weight_q16),
+        0 => (c.best.shift_q16, c.best.score_q16),
         k => {
             let r = c.runners_up.get(usize::from(k).checked_sub(1)?)?;
-            (r.shift_q16, r.weight_q16)
+            (r.shift_q16, r.score_q16)
         }
     };
     (weight_q16 > 0).then(|| (shift_q16 as f32 / 65536.0, weight_q16 as f32 / 65536.0))
@@ -345,9 +335,11 @@ mod tests {
         let shift = c * t.0 + s * t.1 + noise;
         ColumnShift {
             normal_q15: ((c * 32768.0) as i32, (s * 32768.0) as i32),
-            shift_q16: (shift * 65536.0) as i32,
-            weight_q16: 1 << 16,
-            runners_up: [WeightedShift::default(); RUNNERS_UP],
+            best: Shift {
+                shift_q16: (shift * 65536.0) as i32,
+                score_q16: 1 << 16,
+            },
+            runners_up: [Shift::default(); RUNNERS_UP],
         }
     }
 
@@ -357,11 +349,11 @@ mod tests {
         let right = column(deg, t, 0.0);
         ColumnShift {
             runners_up: [
-                WeightedShift {
-                    shift_q16: right.shift_q16,
-                    weight_q16: 3 << 14,
+                Shift {
+                    shift_q16: right.best.shift_q16,
+                    score_q16: 3 << 14,
                 },
-                WeightedShift::default(),
+                Shift::default(),
             ],
             ..column(deg, t, wrong)
         }

@@ -29,7 +29,16 @@
 #![allow(unsafe_code)]
 
 use core::hint::black_box;
-use hough_heading::{stages::fit_translation, stages::match_profile, stages::match_profile_near, config::max_votes_per_bin, stages::paper_asymmetry, config::pyramid_levels, config::pyramid_words, stages::range_percentile, config::recommended_n_theta, config::rho_bins, config::row_words, stages::vote_column, stages::vote_column_split, stages::Accumulator, Angle, stages::Column, stages::ColumnShift, stages::ColumnStats, stages::Correlation, Error, Estimator, Grid, Mode, stages::Peak, stages::PeakKind, Prior, Raster, Reference, ScaleRange, Scan, ScanStats, Score, SensorOffset, stages::Signature, Thresholds, stages::WeightedShift, config::ALIGN_POINTS, stages::REFERENCE_FORMAT, stages::RUNNERS_UP};
+use hough_heading::{
+    config::max_votes_per_bin, config::pyramid_levels, config::pyramid_words,
+    config::recommended_n_theta, config::rho_bins, config::row_words, config::ALIGN_POINTS,
+    stages::fit_translation, stages::match_profile, stages::match_profile_near,
+    stages::paper_asymmetry, stages::range_percentile, stages::vote_column,
+    stages::vote_column_split, stages::Accumulator, stages::Column, stages::ColumnShift,
+    stages::ColumnStats, stages::Correlation, stages::Peak, stages::PeakKind, stages::Shift,
+    stages::Signature, stages::REFERENCE_FORMAT, stages::RUNNERS_UP, Angle, Error, Estimator, Grid,
+    Mode, Prior, Raster, Reference, ScaleRange, Scan, ScanStats, Score, SensorOffset, Thresholds,
+};
 
 /// Any value of `T`, as far as the optimiser knows.
 fn opaque<T>(value: T) -> T {
@@ -253,12 +262,14 @@ fn entry_matching<const HALF: usize, const RHO: usize>() {
 fn entry_translation() {
     let shift = ColumnShift {
         normal_q15: (opaque(0), opaque(0)),
-        shift_q16: opaque(0),
-        weight_q16: opaque(0),
+        best: Shift {
+            shift_q16: opaque(0),
+            score_q16: opaque(0),
+        },
         runners_up: opaque(
-            [WeightedShift {
+            [Shift {
                 shift_q16: opaque(0),
-                weight_q16: opaque(0),
+                score_q16: opaque(0),
             }; RUNNERS_UP],
         ),
     };
