@@ -18,7 +18,7 @@ use crate::angle::Angle;
 use crate::correlation::Peak;
 use crate::grid::Grid;
 use crate::pose::scale::{search_scale, PoseColumn, PoseSearch, ScaleRange};
-use crate::pose::{fit_translation, ColumnShift, Translation};
+use crate::pose::{fit_translation, ColumnShift, Pose};
 use crate::profile::match_profile;
 use crate::reference::{Reference, PROFILE_COLUMNS};
 use crate::signature::Signature;
@@ -107,7 +107,7 @@ pub(crate) fn paper<const N: usize, const HALF: usize>(
     reference: &Signature<HALF>,
     current: &Signature<HALF>,
     peak: &Peak,
-) -> (Angle, HalfTurnTest, Option<Translation>) {
+) -> (Angle, HalfTurnTest, Option<Pose>) {
     let alpha = Angle::from_steps_q16((peak.shift as i64) << 16, N);
     let direct = Score::from_bits(paper_asymmetry(reference, current, peak.shift));
     let chosen = if direct >= Score::ZERO {
@@ -146,7 +146,7 @@ pub(crate) fn improved<
     scale: Option<ScaleRange>,
     max_shift: usize,
     column: &mut Column<RHO>,
-) -> (Angle, HalfTurnTest, Option<Translation>) {
+) -> (Angle, HalfTurnTest, Option<Pose>) {
     let table = &TrigTable::<N>::TABLE;
     let mut pose_columns: Vec<PoseColumn<'_, RHO>, PROFILE_COLUMNS> = Vec::new();
     let mut direct_shifts: Vec<ColumnShift, PROFILE_COLUMNS> = Vec::new();

@@ -95,7 +95,7 @@
 //!   [`config`]);
 //! * [`Grid`], [`Angle`], [`Score`], [`Error`];
 //! * the answer: [`Estimate`], [`Status`], [`Candidate`]
-//!   ([`MAX_CANDIDATES`]), [`HalfTurnTest`] / [`HalfTurn`], [`Translation`]
+//!   ([`MAX_CANDIDATES`]), [`HalfTurnTest`] / [`HalfTurn`], [`Pose`]
 //!   (the pose: translation, scale, residual);
 //! * scans: [`Scan`], [`SensorOffset`], [`Raster`], [`ScanStats`], [`Motion`].
 //!
@@ -134,7 +134,7 @@ pub use estimate::{
 pub use grid::Grid;
 pub use motion::Motion;
 pub use pose::scale::ScaleRange;
-pub use pose::Translation;
+pub use pose::Pose;
 pub use reference::Reference;
 pub use scan::{Raster, Scan, ScanStats, SensorOffset};
 

@@ -10,7 +10,7 @@
 
 use crate::angle::Angle;
 use crate::math::sin_cos_f32 as sin_cos;
-use crate::pose::Translation;
+use crate::pose::Pose;
 use crate::scan::Raster;
 
 impl Raster {
@@ -20,7 +20,7 @@ impl Raster {
     /// the robot frame at scan 1 — directly comparable with the scan-pair
     /// files' `dx`, `dy`, `dtheta`. The translation's scale is not used: two
     /// scans of one sensor have `s = 1` (leave the scale search off).
-    pub fn motion(&self, alpha: Angle, translation: Option<&Translation>) -> Motion {
+    pub fn motion(&self, alpha: Angle, translation: Option<&Pose>) -> Motion {
         let dtheta = angle_radians(-alpha);
         let d = translation.and_then(|t| {
             let (tx, ty) = (
@@ -69,7 +69,7 @@ mod tests {
         // t = −R(α)·d / cell with α = −dθ.
         let (s, c) = (-dtheta).sin_cos();
         let t = (-(c * d.0 - s * d.1) / 0.1, -(s * d.0 + c * d.1) / 0.1);
-        let translation = Translation {
+        let translation = Pose {
             x: fixed::types::I16F16::from_num(t.0),
             y: fixed::types::I16F16::from_num(t.1),
             scale: fixed::types::I16F16::ONE,

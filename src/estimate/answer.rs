@@ -5,7 +5,7 @@
 use crate::angle::Angle;
 use crate::direction::{HalfTurn, HalfTurnTest};
 use crate::math::insert_sorted;
-use crate::pose::Translation;
+use crate::pose::Pose;
 use crate::Score;
 use fixed::types::I16F16;
 use heapless::Vec;
@@ -142,7 +142,7 @@ pub struct Estimate {
     /// unobservable direction, if any. Improved mode only; `None` when the
     /// rotation is not resolved or a prior picked another candidate than the
     /// one the translation was fitted for.
-    pub translation: Option<Translation>,
+    pub translation: Option<Pose>,
 }
 
 impl Estimate {

@@ -18,7 +18,7 @@ use crate::direction::{self, HalfTurn, HalfTurnTest};
 use crate::grid::Grid;
 use crate::pose::pyramid::Pyramid;
 use crate::pose::scale::ScaleRange;
-use crate::pose::Translation;
+use crate::pose::Pose;
 use crate::reference::Reference;
 use crate::signature::{PeakKind, Signature};
 use crate::Score;
@@ -276,7 +276,7 @@ impl<
         reference: &Reference<W, H, RW, HALF, RHO>,
         grid: &Grid<W, H, RW>,
         peak: &Peak,
-    ) -> (Angle, HalfTurnTest, Option<Translation>) {
+    ) -> (Angle, HalfTurnTest, Option<Pose>) {
         match self.mode {
             Mode::Paper => direction::paper::<N, HALF>(reference.signature(), &self.current, peak),
             Mode::Improved => {
@@ -303,7 +303,7 @@ impl<
         reference: &Reference<W, H, RW, HALF, RHO>,
         grid: &Grid<W, H, RW>,
         alpha: Angle,
-    ) -> (Angle, HalfTurnTest, Option<Translation>) {
+    ) -> (Angle, HalfTurnTest, Option<Pose>) {
         let max_shift = self.max_shift();
         let [column, _] = &mut self.columns;
         direction::improved::<W, H, RW, N, HALF, RHO>(

@@ -13,7 +13,7 @@ use crate::grid::Grid;
 use crate::math::sort_descending;
 use crate::pose::icp::refine;
 use crate::pose::search::{Aligner, Placement};
-use crate::pose::Translation;
+use crate::pose::Pose;
 use crate::reference::Reference;
 use crate::trig::sin_cos_q15;
 use crate::Score;
@@ -272,7 +272,7 @@ pub(super) struct Unverified<'c> {
     /// The profile test of the best peak.
     pub(super) test: HalfTurnTest,
     /// The half of the best peak the profile test chose, and its pose.
-    pub(super) hint: Option<(Angle, Translation)>,
+    pub(super) hint: Option<(Angle, Pose)>,
 }
 
 /// Correlation peaks whose two halves the verification scores.
@@ -350,7 +350,7 @@ fn angle_search<
 
 /// The shift (reference cells `(Δcol, Δrow)`) of the translation `t` fitted
 /// by the profile test for rotation α: `u = −R(−α)·t`.
-fn hint_shift<const N: usize>(alpha: Angle, t: &Translation) -> (i32, i32) {
+fn hint_shift<const N: usize>(alpha: Angle, t: &Pose) -> (i32, i32) {
     let (cos, sin) = sin_cos_q15::<N>(alpha);
     let (cos, sin) = (i64::from(cos), i64::from(sin));
     let (tx, ty) = (i64::from(t.x.to_bits()), i64::from(t.y.to_bits()));
@@ -376,8 +376,8 @@ fn verified_translation<const N: usize>(
     alpha: Angle,
     u_q8: (i64, i64),
     scale_q16: u32,
-    fit: Option<&Translation>,
-) -> Translation {
+    fit: Option<&Pose>,
+) -> Pose {
     let (cos, sin) = sin_cos_q15::<N>(alpha);
     let (cos, sin) = (i64::from(cos), i64::from(sin));
     let s = i64::from(scale_q16);
@@ -393,7 +393,7 @@ fn verified_translation<const N: usize>(
     }
     let clamp =
         |v: i64| I16F16::from_bits(v.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32);
-    Translation {
+    Pose {
         x: clamp(tx),
         y: clamp(ty),
         scale: I16F16::from_bits(scale_q16 as i32),

@@ -14,4 +14,4 @@ pub(crate) mod scale;
 pub(crate) mod search;
 pub(crate) mod translation;
 
-pub use translation::{fit_translation, ColumnShift, Translation, MAX_FIT_COLUMNS};
+pub use translation::{fit_translation, ColumnShift, Pose, MAX_FIT_COLUMNS};

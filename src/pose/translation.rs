@@ -34,7 +34,7 @@ pub struct ColumnShift {
 /// appears in image 2 at `s·R(α)·p + t`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Translation {
+pub struct Pose {
     /// `t_x`, pixels.
     pub x: I16F16,
     /// `t_y`, pixels.
@@ -88,20 +88,20 @@ const DROPPED: Choice = u8::MAX;
 /// scored by the summed weight of the columns with a candidate within 2 px
 /// of its prediction, and the best-supported one picks each column's shift
 /// (or drops the column) for the final least-squares fit.
-pub fn fit_translation(shifts: &[ColumnShift]) -> Option<Translation> {
+pub fn fit_translation(shifts: &[ColumnShift]) -> Option<Pose> {
     fit(shifts, CANDIDATES)
 }
 
 /// [`fit_translation`] on the best shifts alone (runners-up ignored): the
 /// scale search scores every scale with it, where weighing the runners-up
 /// would cost FPU-less targets dearly at scales whose columns disagree anyway.
-pub(crate) fn fit_best_shifts(shifts: &[ColumnShift]) -> Option<Translation> {
+pub(crate) fn fit_best_shifts(shifts: &[ColumnShift]) -> Option<Pose> {
     fit(shifts, 1)
 }
 
 /// The fit over each column's first `candidates` shifts (1: the best only).
 #[inline(never)]
-fn fit(shifts: &[ColumnShift], candidates: Choice) -> Option<Translation> {
+fn fit(shifts: &[ColumnShift], candidates: Choice) -> Option<Pose> {
     let shifts = shifts.get(..MAX_FIT_COLUMNS).unwrap_or(shifts);
     let mut choices: [Choice; MAX_FIT_COLUMNS] = [0; MAX_FIT_COLUMNS];
     let mut fit = solve(shifts, &choices)?;
@@ -134,7 +134,7 @@ fn fit(shifts: &[ColumnShift], candidates: Choice) -> Option<Translation> {
     } else {
         0.0
     };
-    Some(Translation {
+    Some(Pose {
         x: to_fixed(x),
         y: to_fixed(y),
         scale: I16F16::ONE,
@@ -144,7 +144,7 @@ fn fit(shifts: &[ColumnShift], candidates: Choice) -> Option<Translation> {
     })
 }
 
-impl Translation {
+impl Pose {
     /// The ρ shift `n·t` (Q16 pixels) this translation gives a column with
     /// unit normal `n` (Q15), saturated to `i32`.
     pub fn column_shift_q16(&self, normal_q15: (i32, i32)) -> i32 {
