@@ -280,8 +280,6 @@ impl Overlap {
 }
 
 /// Products per `u32` partial sum of the profile match:
-
-/// Products per `u32` partial sum of the profile match:
 /// `256 · 255 · 65 535 < 2³²`.
 const DOT_CHUNK: usize = 256;
 
