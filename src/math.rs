@@ -163,24 +163,43 @@ pub(crate) fn sin_cos_f32(x: f32) -> Option<(f32, f32)> {
 /// Vertex of the parabola through `(−1, before)`, `(0, peak)`, `(1, after)`
 /// (abscissae in units of `spacing`): `(before − after)·spacing /
 /// (2·curvature)`, rounded toward zero (exact integer division) and clamped
-/// to `±limit`; 0 where the three do not bend down (`curvature ≥ 0`).
+/// to `±|limit|`; 0 where the three do not bend down (`curvature ≥ 0`).
 ///
 /// `spacing = 2¹⁶, limit = 2¹⁵` gives the sub-step offset in Q16 within
-/// ±½. Exact for any inputs: the arithmetic is `i64` when the products fit
-/// and `i128` otherwise (so the Cortex-M0 pays the wide division only for
-/// values beyond 2⁴⁷).
+/// ±½. Exact for any inputs: the arithmetic is `i64` while every step fits
+/// and `i128` otherwise, in a separate function (so the callers' frames hold
+/// no 128-bit temporaries: they cost the Cortex-M0 stack and cycles).
+#[inline]
 pub(crate) fn parabola_vertex(before: i64, peak: i64, after: i64, spacing: i64, limit: i64) -> i64 {
+    let narrow = || -> Option<i64> {
+        let curvature = before
+            .checked_sub(peak.checked_mul(2)?)?
+            .checked_add(after)?;
+        if curvature >= 0 {
+            return Some(0);
+        }
+        let numerator = before.checked_sub(after)?.checked_mul(spacing)?;
+        numerator.checked_div(curvature.checked_mul(2)?)
+    };
+    let limit = limit.saturating_abs();
+    match narrow() {
+        Some(offset) => offset.max(-limit).min(limit),
+        None => parabola_vertex_wide(before, peak, after, spacing, limit),
+    }
+}
+
+/// [`parabola_vertex`] in `i128` (no intermediate can overflow: every
+/// factor is below 2⁶⁴), clamped to `±limit` (`limit ≥ 0`).
+#[cold]
+#[inline(never)]
+fn parabola_vertex_wide(before: i64, peak: i64, after: i64, spacing: i64, limit: i64) -> i64 {
     let curvature = i128::from(before) - 2 * i128::from(peak) + i128::from(after);
     if curvature >= 0 {
         return 0;
     }
     let numerator = (i128::from(before) - i128::from(after)) * i128::from(spacing);
-    let denominator = 2 * curvature;
-    let offset = match (i64::try_from(numerator), i64::try_from(denominator)) {
-        (Ok(n), Ok(d)) => i128::from(n.checked_div(d).unwrap_or(0)),
-        _ => numerator.checked_div(denominator).unwrap_or(0),
-    };
-    let limit = i128::from(limit.unsigned_abs().min(i64::MAX as u64) as i64);
+    let offset = numerator.checked_div(2 * curvature).unwrap_or(0);
+    let limit = i128::from(limit);
     offset.max(-limit).min(limit) as i64
 }
 
