@@ -6,7 +6,7 @@
 //! `reference!` macros fill them in, and the types check them at compile time
 //! (a wrong value is a compile error whose message names the right function).
 //!
-//! The ground floor with [`math`](crate::math): it imports nothing else of
+//! The ground floor with `math`: it imports nothing else of
 //! the crate.
 
 use crate::math::{atan_f64, isqrt_ceil, TAU};

@@ -17,7 +17,7 @@ pub const PROFILE_COLUMNS: usize = 4;
 pub struct Profile<const RHO: usize> {
     /// Column index `k ∈ [0, HALF)` (θ = πk/HALF).
     pub theta: usize,
-    /// The column's split votes ([`vote_column_split`](crate::vote_column_split))
+    /// The column's split votes ([`vote_column_split`](crate::stages::vote_column_split))
     /// `>> shift` per bin, with the smallest shift that fits `u8` (the
     /// matching is invariant to a common factor).
     pub counts: [u8; RHO],

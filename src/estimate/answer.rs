@@ -138,7 +138,7 @@ pub struct Estimate {
     /// 0 without verification.
     pub overlap: Score,
     /// The rest of the pose for `alpha`: translation `t` in pixels, scale
-    /// (1 unless [`Estimator::with_scale_search`]), residual and the
+    /// (1 unless [`Estimator::with_scale_search`](crate::Estimator::with_scale_search)), residual and the
     /// unobservable direction, if any. Improved mode only; `None` when the
     /// rotation is not resolved or a prior picked another candidate than the
     /// one the translation was fitted for.

@@ -22,7 +22,7 @@ use heapless::Vec;
 /// `0.5 ≤ min ≤ max ≤ 2`.
 ///
 /// Cost: one evaluation re-votes the reference's profile columns (at most
-/// [`PROFILE_COLUMNS`](crate::PROFILE_COLUMNS)) and matches them; a search
+/// [`PROFILE_COLUMNS`](crate::stages::PROFILE_COLUMNS)) and matches them; a search
 /// makes at most `MAX_COARSE_STEPS + 1 + 9 = 26` evaluations (17 + 9 for the
 /// default range 0.8–1.25), the coarse ones over the whole shift window.
 /// Below `s` = 1 the re-voted columns stretch by `1/s`: lines farther than

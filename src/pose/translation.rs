@@ -47,7 +47,7 @@ pub struct Pose {
     /// determined and the residual is 0 whatever the shifts: see
     /// [`columns`](Self::columns).
     pub residual: I16F16,
-    /// Columns kept in the fit (1 to [`PROFILE_COLUMNS`](crate::PROFILE_COLUMNS)
+    /// Columns kept in the fit (1 to [`PROFILE_COLUMNS`](crate::stages::PROFILE_COLUMNS)
     /// from the estimator; a column none of whose shifts lies within 2 px of
     /// the best-supported translation is dropped). Only three or more can
     /// disagree: with one (or one direction) the translation is partly
@@ -67,7 +67,7 @@ const OBSERVABILITY: f32 = 0.05;
 /// not support it.
 const OUTLIER_PX: f32 = 2.0;
 /// At most this many columns take part in the fit (the estimator gives
-/// [`PROFILE_COLUMNS`](crate::PROFILE_COLUMNS)); later ones are ignored.
+/// [`PROFILE_COLUMNS`](crate::stages::PROFILE_COLUMNS)); later ones are ignored.
 pub const MAX_FIT_COLUMNS: usize = 8;
 
 /// Which of a column's shifts the fit uses: its best (0), a runner-up
