@@ -45,8 +45,9 @@ mod firmware {
     use core::mem::size_of;
 
     use hough_heading::{
-        estimator, grid, half_turn_steps, pyramid_words, reference, rho_bins, row_words,
-        vote_column, vote_column_pair, Angle, Column, Estimate, Grid, Mode, ScaleRange,
+        config::half_turn_steps, config::pyramid_words, config::rho_bins, config::row_words,
+        estimator, grid, reference, stages::vote_column, stages::vote_column_pair, stages::Column,
+        Angle, Estimate, Grid, Mode, ScaleRange,
     };
 
     use crate::support::room::{room_words, Pose};

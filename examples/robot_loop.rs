@@ -20,7 +20,7 @@ mod support;
 
 #[cfg(target_os = "none")]
 mod firmware {
-    use hough_heading::{estimator, grid, row_words, Grid, Mode, Score, Status};
+    use hough_heading::{config::row_words, estimator, grid, Grid, Mode, Score, Status};
 
     use crate::support::room::{room_words, Pose};
     use crate::support::{self, ScopePin};

@@ -11,26 +11,26 @@
 //! `(|x| + |y|) · 2⁻¹⁶ ≤ 0.006` pixel at 256², so a vote changes bin only when
 //! the exact ρ lies that close to a bin edge.
 
+use crate::config::{check_grid, rho_bins};
+use crate::grid::Grid;
 use crate::trig::TrigTable;
-use crate::Grid;
 
-/// Largest number of votes any single bin can receive for a `width × height`
-/// grid (a compile-time bound, checked against `u16`).
-///
-/// Proof: a bin is a strip of width 1 across the grid. If `|sin θ| ≥ 1/√2` each
-/// of the `W` pixel columns meets the strip in an interval of length
-/// `1/|sin θ| ≤ √2`, which holds at most 2 pixel centres; otherwise each of the
-/// `H` pixel rows does. So a bin holds at most `2 · max(W, H)` votes, and never
-/// more than `W · H`.
-pub const fn max_votes_per_bin(width: usize, height: usize) -> usize {
-    let side = if width > height { width } else { height };
-    let strip = 2 * side;
-    let all = width * height;
-    if strip < all {
-        strip
-    } else {
-        all
-    }
+/// Compile-time check of a column vote's sizes: the grid's (`RW`), an even
+/// `N ≥ 8`, and `RHO = rho_bins(W, H)` (the vote mask needs that power of
+/// two: another `RHO` would put votes in the wrong bins silently).
+const fn check_column<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const RHO: usize,
+>() {
+    check_grid(W, H, RW);
+    assert!(N >= 8 && N % 2 == 0, "N_THETA must be even and at least 8");
+    assert!(
+        RHO == rho_bins(W, H),
+        "RHO must equal hough_heading::config::rho_bins(W, H)"
+    );
 }
 
 /// One accumulator column: vote counts per ρ bin.
@@ -62,6 +62,7 @@ pub fn vote_column<
     k: usize,
     column: &mut Column<RHO>,
 ) {
+    const { check_column::<W, H, RW, N, RHO>() };
     let table = &TrigTable::<N>::TABLE;
     let (c, s) = (table.cos(k), table.sin(k));
     let step = 2 * c;
@@ -124,6 +125,7 @@ pub fn vote_column_split<
     inv_scale_q16: u32,
     column: &mut Column<RHO>,
 ) {
+    const { check_column::<W, H, RW, N, RHO>() };
     let table = &TrigTable::<N>::TABLE;
     let inv_scale = i64::from(inv_scale_q16.min(MAX_INV_SCALE_Q16));
     // Q15 × Q16 → Q15, |result| ≤ 2¹⁶.
@@ -178,6 +180,7 @@ pub fn vote_column_pair<
     first: &mut Column<RHO>,
     second: &mut Column<RHO>,
 ) {
+    const { check_column::<W, H, RW, N, RHO>() };
     let table = &TrigTable::<N>::TABLE;
     let (c1, s1) = (table.cos(k), table.sin(k));
     let (c2, s2) = (table.cos(k + 1), table.sin(k + 1));
@@ -255,9 +258,41 @@ impl<const HALF: usize, const RHO: usize> Accumulator<HALF, RHO> {
     }
 }
 
+/// Votes column `m ∈ [0, N)` of image 2 into `column` (zeroed first) with
+/// split votes at `ρ · inv_scale`: columns `m ≥ HALF` are the mirror of
+/// `m − HALF`.
+pub(crate) fn vote_profile_column<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+>(
+    grid: &Grid<W, H, RW>,
+    m: usize,
+    inv_scale_q16: u32,
+    column: &mut Column<RHO>,
+) {
+    column.fill(0);
+    vote_column_split::<W, H, RW, N, RHO>(grid, m % HALF, inv_scale_q16, column);
+    if m >= HALF {
+        mirror(column);
+    }
+}
+
+/// Reverses a column in place about its centre: `b ↔ RHO − b` (θ → θ + π).
+pub(crate) fn mirror<const RHO: usize>(column: &mut Column<RHO>) {
+    // Bins 1..RHO: reversing that slice maps b to RHO − b.
+    if let Some(tail) = column.get_mut(1..) {
+        tail.reverse();
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::max_votes_per_bin;
 
     #[test]
     fn vote_bound_holds_for_a_full_grid() {
@@ -289,5 +324,15 @@ mod tests {
         assert_eq!(acc.get(4, 8 + 1), 8);
         // θ = 270°: ρ = −0.5, the mirror bin.
         assert_eq!(acc.get(12, 8 - 1), 8);
+    }
+
+    #[test]
+    fn mirror_maps_b_to_rho_minus_b() {
+        let mut c = [0u16; 8];
+        c[1] = 1;
+        c[3] = 3;
+        c[4] = 4;
+        mirror(&mut c);
+        assert_eq!(c, [0, 0, 0, 0, 4, 3, 0, 1]);
     }
 }

@@ -5,6 +5,11 @@
 //! functions here compute those values; the `estimator!`, `grid!` and
 //! `reference!` macros fill them in, and the types check them at compile time
 //! (a wrong value is a compile error whose message names the right function).
+//!
+//! The ground floor with `math`: it imports nothing else of
+//! the crate.
+
+use crate::math::{atan_f64, isqrt_ceil, TAU};
 
 /// Number of `u32` words per grid row: `ceil(width / 32)`.
 pub const fn row_words(width: usize) -> usize {
@@ -32,18 +37,9 @@ pub const fn rho_bins(width: usize, height: usize) -> usize {
     (2 * (half + 1)).next_power_of_two()
 }
 
-const fn isqrt_ceil(v: u64) -> u64 {
-    let r = v.isqrt();
-    if r * r == v {
-        r
-    } else {
-        r + 1
-    }
-}
-
 /// The paper's recommended range of θ steps over the full circle for a
 /// `width × height` image (eqs. 4–5): `max(w, h) ≤ N_θ < 2π / θ_lim` with
-/// `θ_lim = atan(b / (b² + a(a − 1)))`, `a = max(w, h)`, `b = min(w, h)`.
+/// `θ_lim = atan_f64(b / (b² + a(a − 1)))`, `a = max(w, h)`, `b = min(w, h)`.
 ///
 /// Returns `(min, max_exclusive)`. Finer steps than `max_exclusive` cannot add
 /// accuracy. 64² → (64, 800), 128² → (128, 1602), 256² → (256, 3209).
@@ -54,7 +50,7 @@ pub const fn recommended_n_theta(width: usize, height: usize) -> (usize, usize) 
         return (a, a + 1);
     }
     let (a, b) = (a as f64, b as f64);
-    let theta_lim = atan(b / (b * b + a * (a - 1.0)));
+    let theta_lim = atan_f64(b / (b * b + a * (a - 1.0)));
     let max = TAU / theta_lim;
     // ceil(max): the range is half-open.
     let max_int = max as usize;
@@ -66,43 +62,106 @@ pub const fn recommended_n_theta(width: usize, height: usize) -> (usize, usize) 
     (a as usize, max_exclusive)
 }
 
-pub(crate) const PI: f64 = core::f64::consts::PI;
-pub(crate) const TAU: f64 = 2.0 * PI;
+/// Largest number of votes any single bin can receive for a `width × height`
+/// grid (a compile-time bound, checked against `u16`).
+///
+/// Proof: a bin is a strip of width 1 across the grid. If `|sin θ| ≥ 1/√2` each
+/// of the `W` pixel columns meets the strip in an interval of length
+/// `1/|sin θ| ≤ √2`, which holds at most 2 pixel centres; otherwise each of the
+/// `H` pixel rows does. So a bin holds at most `2 · max(W, H)` votes, and never
+/// more than `W · H`.
+pub const fn max_votes_per_bin(width: usize, height: usize) -> usize {
+    let side = if width > height { width } else { height };
+    let strip = 2 * side;
+    let all = width * height;
+    if strip < all {
+        strip
+    } else {
+        all
+    }
+}
 
-/// `atan(x)` for `x ≥ 0` in const context: two argument halvings
-/// (`atan x = 2 atan(x / (1 + sqrt(1 + x²)))`) then a Taylor series; error
-/// below 1e-15 for `x ≤ 1`.
-const fn atan(x: f64) -> f64 {
-    let x1 = x / (1.0 + sqrt(1.0 + x * x));
-    let x2 = x1 / (1.0 + sqrt(1.0 + x1 * x1));
-    // |x2| ≤ tan(π/16) ≈ 0.199: 20 terms reach f64 precision.
-    let x2sq = x2 * x2;
-    let mut term = x2;
-    let mut sum = 0.0;
-    let mut k = 0;
-    while k < 20 {
-        sum += term / (2 * k + 1) as f64;
-        term *= -x2sq;
+/// Most occupied cells of image 2 scored per pose (taken evenly in raster
+/// order when there are more); a `W × H` grid scores
+/// [`align_points`]`(W, H)` of them.
+pub const ALIGN_POINTS: usize = 128;
+
+/// Cells of image 2 the search scores on a `w × h` grid: `max(w, h) / 2`
+/// within 64 ..= [`ALIGN_POINTS`] (64 up to 128², 128 at 256²): about one
+/// per two cells of a wall across the grid, and at least 64 (with 32 a
+/// circle at 64² came out confident: one point is 3 % of the score).
+pub const fn align_points(width: usize, height: usize) -> usize {
+    let side = if width > height { width } else { height };
+    let half = side / 2;
+    if half < 64 {
+        64
+    } else if half > ALIGN_POINTS {
+        ALIGN_POINTS
+    } else {
+        half
+    }
+}
+
+/// Cells of image 2 the ICP matches on a `w × h` grid: four times
+/// [`align_points`] (256 at 128², 512 at 256²).
+pub const fn icp_points(width: usize, height: usize) -> usize {
+    4 * align_points(width, height)
+}
+
+/// Pyramid levels above the grid: the smallest `L ≥ 1` with
+/// `4 · 2ᴸ ≥ max(w, h)`, so the top level is at most 4 × 4 cells.
+pub const fn pyramid_levels(width: usize, height: usize) -> usize {
+    let side = if width > height { width } else { height };
+    let mut levels = 1;
+    while 4usize << levels < side {
+        levels += 1;
+    }
+    levels
+}
+
+/// `u32` words of the pyramid levels `1..=pyramid_levels(w, h)` (the estimator's
+/// `PW`): 188 words (752 B) at 128², 700 (2.7 KiB) at 256².
+pub const fn pyramid_words(width: usize, height: usize) -> usize {
+    let levels = pyramid_levels(width, height);
+    let mut total = 0;
+    let mut k = 1;
+    while k <= levels {
+        total += level_height(height, k) * level_row_words(width, k);
         k += 1;
     }
-    4.0 * sum
+    total
 }
 
-/// `sqrt(v)` for `v ≥ 0` in const context by Newton iteration.
-const fn sqrt(v: f64) -> f64 {
-    if v <= 0.0 {
-        return 0.0;
+/// Most pyramid levels (W, H ≤ 2048: `4 · 2⁹ ≥ 2048`).
+pub(crate) const MAX_LEVELS: usize = 9;
+
+/// Offset, height and row words of each level of a `w × h` pyramid.
+pub(crate) const fn layout(width: usize, height: usize) -> [(usize, usize, usize); MAX_LEVELS + 1] {
+    let mut out = [(0, 0, 0); MAX_LEVELS + 1];
+    let levels = pyramid_levels(width, height);
+    let mut offset = 0;
+    let mut k = 1;
+    while k <= levels && k <= MAX_LEVELS {
+        let (h, rw) = (level_height(height, k), level_row_words(width, k));
+        out[k] = (offset, h, rw);
+        offset += h * rw;
+        k += 1;
     }
-    let mut r = if v > 1.0 { v } else { 1.0 };
-    let mut i = 0;
-    while i < 64 {
-        r = 0.5 * (r + v / r);
-        i += 1;
-    }
-    r
+    out
 }
 
-/// Compile-time checks of one estimator configuration. Each failed check is a
+pub(crate) const fn level_width(width: usize, k: usize) -> usize {
+    width.div_ceil(1 << k)
+}
+
+pub(crate) const fn level_height(height: usize, k: usize) -> usize {
+    height.div_ceil(1 << k)
+}
+
+pub(crate) const fn level_row_words(width: usize, k: usize) -> usize {
+    level_width(width, k).div_ceil(32)
+}
+
 /// compile error naming the parameter to fix.
 pub(crate) const fn check_config(
     width: usize,
@@ -120,24 +179,24 @@ pub(crate) const fn check_config(
     assert!(n_theta <= 4096, "N_THETA must be at most 4096");
     assert!(
         half == half_turn_steps(n_theta),
-        "HALF must equal hough_heading::half_turn_steps(N_THETA) = N_THETA / 2"
+        "HALF must equal hough_heading::config::half_turn_steps(N_THETA) = N_THETA / 2"
     );
     assert!(
         rho == rho_bins(width, height),
-        "RHO must equal hough_heading::rho_bins(W, H)"
+        "RHO must equal hough_heading::config::rho_bins(W, H)"
     );
     // Two-bin peaks (A[b] + A[b+1]) must fit the u16 signature.
     assert!(
-        2 * crate::accumulator::max_votes_per_bin(width, height) <= u16::MAX as usize,
+        2 * max_votes_per_bin(width, height) <= u16::MAX as usize,
         "grid too large: two-bin vote counts would overflow u16"
     );
 }
 
 /// Compile-time checks of a grid's parameters.
-pub(crate) const fn check_pyramid(width: usize, height: usize, pyramid_words: usize) {
+pub(crate) const fn check_pyramid(width: usize, height: usize, pyramid_words_param: usize) {
     assert!(
-        pyramid_words == crate::align::pyramid_words(width, height),
-        "PW must equal hough_heading::pyramid_words(W, H)"
+        pyramid_words_param == pyramid_words(width, height),
+        "PW must equal hough_heading::config::pyramid_words(W, H)"
     );
 }
 
@@ -149,7 +208,7 @@ pub(crate) const fn check_grid(width: usize, height: usize, row_words_param: usi
     );
     assert!(
         row_words_param == row_words(width),
-        "ROW_WORDS must equal hough_heading::row_words(W) = W.div_ceil(32)"
+        "ROW_WORDS must equal hough_heading::config::row_words(W) = W.div_ceil(32)"
     );
 }
 
@@ -179,5 +238,13 @@ mod tests {
             let expect = (core::f64::consts::TAU / lim).ceil() as usize;
             assert_eq!(recommended_n_theta(w, h), (w.max(h), expect), "{w}x{h}");
         }
+    }
+
+    #[test]
+    fn pyramid_sizes() {
+        assert_eq!(pyramid_levels(128, 128), 5);
+        assert_eq!(pyramid_words(128, 128), 188);
+        assert_eq!(pyramid_levels(256, 256), 6);
+        assert_eq!(pyramid_words(256, 256), 700);
     }
 }

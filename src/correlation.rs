@@ -7,6 +7,7 @@
 //! `den = sqrt((nΣD1² − (ΣD1)²)(nΣD2² − (ΣD2)²))`; only `num` varies with `k`,
 //! so peaks are found on `num` and only they are divided.
 
+use crate::math::{dot_u32, insert_sorted, parabola_vertex};
 use crate::Score;
 use heapless::Vec;
 
@@ -31,15 +32,7 @@ impl Peak {
     /// Sub-step offset of the parabola through the peak and its neighbours, in
     /// Q16 steps, within ±½ step.
     pub fn offset_q16(&self) -> i64 {
-        let curvature =
-            i128::from(self.before) - 2 * i128::from(self.value) + i128::from(self.after);
-        if curvature >= 0 {
-            return 0;
-        }
-        let slope = i128::from(self.before) - i128::from(self.after);
-        // Vertex of the parabola: δ = (before − after) / (2 · curvature).
-        let delta = (slope << 15) / curvature;
-        delta.clamp(-(1 << 15), 1 << 15) as i64
+        parabola_vertex(self.before, self.value, self.after, 1 << 16, 1 << 15)
     }
 }
 
@@ -85,7 +78,7 @@ impl Correlation {
             let (d1_head, d1_tail) = d1.split_at(HALF - k);
             let (d2_head, d2_tail) = d2.split_at(k);
             let dot = if narrow {
-                u64::from(dot_u32(d1_head, d2_tail) + dot_u32(d1_tail, d2_head))
+                u64::from(dot_u32(d1_head.iter(), d2_tail) + dot_u32(d1_tail.iter(), d2_head))
             } else {
                 dot_u64(d1_head, d2_tail) + dot_u64(d1_tail, d2_head)
             };
@@ -98,7 +91,7 @@ impl Correlation {
             let after = if k + 1 < HALF { num(k + 1) } else { first };
             // A plateau counts once, at its first step.
             if value > before && value >= after {
-                insert(
+                insert_sorted(
                     &mut peaks,
                     Peak {
                         shift: k,
@@ -106,6 +99,7 @@ impl Correlation {
                         value,
                         after,
                     },
+                    |a, b| b.value < a.value,
                 );
             }
             before = value;
@@ -149,13 +143,6 @@ pub(crate) fn circular_distance(a: usize, b: usize, period: usize) -> usize {
     d.min(period - d)
 }
 
-/// `Σ a·b` where the caller has checked it fits `u32`.
-fn dot_u32(a: &[u16], b: &[u16]) -> u32 {
-    a.iter().zip(b).fold(0u32, |acc, (&x, &y)| {
-        acc.wrapping_add(u32::from(x) * u32::from(y))
-    })
-}
-
 /// `Σ a·b` in `u64`.
 fn dot_u64(a: &[u16], b: &[u16]) -> u64 {
     a.iter()
@@ -169,22 +156,6 @@ fn moments(d: &[u16]) -> (u64, u64) {
         let v = u64::from(v);
         (s + v, q + v * v)
     })
-}
-
-/// Inserts keeping `peaks` sorted by value, strongest first, dropping the weakest.
-fn insert(peaks: &mut Vec<Peak, MAX_PEAKS>, peak: Peak) {
-    let at = peaks
-        .iter()
-        .position(|p| p.value < peak.value)
-        .unwrap_or(peaks.len());
-    if at >= MAX_PEAKS {
-        return;
-    }
-    if peaks.is_full() {
-        peaks.pop();
-    }
-    // Cannot fail: there is room after the pop and `at ≤ len`.
-    let _ = peaks.insert(at, peak);
 }
 
 #[cfg(test)]

@@ -1,16 +1,30 @@
-//! α versus α + π: two tests.
+//! α versus α + π: the two half-turn tests, one shape. Both take a
+//! correlation peak and return its rotation α, a [`HalfTurnTest`] (the
+//! scores of α and α + π and the choice) and, for the improved test, the
+//! pose the profile shifts imply.
 //!
-//! * [`paper_asymmetry`]: the paper's section 8 — Pearson correlation of the
-//!   asymmetry maps `S1(θ)` and `S2(θ + α)` versus `S2(θ + α + π) = −S2(θ + α)`.
-//!   `l` and `u` are set by stray pixels, so this flips about half the time
-//!   with 10 % outliers (DESIGN.md §3).
-//! * [`match_profile`]: the improved test — the ρ-profile of a strong θ column
-//!   of image 1 against the column at θ + α of image 2, direct versus mirrored
-//!   (`ρ → −ρ`), each at its best ρ shift (a translation `t` shifts column θ by
-//!   `t·(cos θ, sin θ)`). The mirrored profile wins when the rotation is α + π.
+//! * [`paper`]: the paper's section 8 — Pearson correlation of the
+//!   asymmetry maps `S1(θ)` and `S2(θ + α)` versus `S2(θ + α + π) = −S2(θ + α)`
+//!   ([`paper_asymmetry`]). `l` and `u` are set by stray pixels, so this flips
+//!   about half the time with 10 % outliers (DESIGN.md §3).
+//! * [`improved`]: the ρ-profile of each strong θ column of image 1 against
+//!   the column at θ + α of image 2, direct versus mirrored
+//!   ([`match_profile`]), each at its best ρ shift. The mirrored profile wins
+//!   when the rotation is α + π; the shifts give the translation (and the
+//!   scale, when searched).
 
-use crate::accumulator::Column;
+use crate::accumulator::{vote_profile_column, Column, UNIT_SCALE_Q16};
+use crate::angle::Angle;
+use crate::correlation::Peak;
+use crate::grid::Grid;
+use crate::pose::scale::{search_scale, PoseColumn, PoseSearch, ScaleRange};
+use crate::pose::{fit_translation, ColumnShift, Pose};
+use crate::profile::match_profile;
+use crate::reference::{Reference, PROFILE_COLUMNS};
 use crate::signature::Signature;
+use crate::trig::TrigTable;
+use crate::Score;
+use heapless::Vec;
 
 /// The paper's direction score: Pearson correlation of `S1(θ)` and
 /// `S2(θ + k·Δθ)` over the full circle, in Q16 ([−1, 1]). The score of
@@ -42,311 +56,172 @@ pub fn paper_asymmetry<const HALF: usize>(
     ((dot << 16) / norm).clamp(-(1 << 16), 1 << 16) as i32
 }
 
-/// The best alignment of a reference profile with a column.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// Which member of the pair α, α + π the direction test chose.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct ProfileMatch {
-    /// Normalised dot product at the best shift, Q16 in [0, 1]
-    /// (`Σ P·Q / sqrt(ΣP² ΣQ²)`).
-    pub score_q16: u32,
-    /// The shift `s` (bins = pixels, Q16, sub-bin by parabolic refinement)
-    /// with `Q[b + s] ≈ P[b]` (direct) or `Q[b + s] ≈ P[RHO − b]` (mirrored).
-    pub shift_q16: i32,
-    /// The next best local maxima of the match, more than
-    /// [`RUNNER_UP_SEPARATION`] shifts from the best, strongest first
-    /// (score 0: none): where parallel walls repeat, the right shift may be
-    /// one of these.
-    pub runners_up: [RunnerUp; RUNNERS_UP],
+pub enum HalfTurn {
+    /// α (the correlation shift as is).
+    Direct,
+    /// α + π.
+    Flipped,
 }
 
-/// How many runner-up shifts a [`ProfileMatch`] keeps.
-pub const RUNNERS_UP: usize = 2;
-
-/// A runner-up shift must lie more than this many shifts from the best one.
-pub const RUNNER_UP_SEPARATION: i32 = 2;
-
-/// A local maximum of the match other than the best.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// The direction test's two scores (in [−1, 1]; paper mode: `flipped =
+/// −direct`) and its choice.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct RunnerUp {
-    /// Normalised dot product there, Q16 in [0, 1]; 0 when there is none.
-    pub score_q16: u32,
-    /// Its shift, Q16, sub-bin by parabolic refinement.
-    pub shift_q16: i32,
+pub struct HalfTurnTest {
+    /// The chosen member.
+    pub chosen: HalfTurn,
+    /// Score of α.
+    pub direct: Score,
+    /// Score of α + π.
+    pub flipped: Score,
 }
 
-/// Matches reference profile `profile` (counts scaled to `u8`) against
-/// `column` of the second image, at every shift `|s| ≤ max_shift`, direct or
-/// mirrored. Cost: at most `(2·max_shift + 1) × support` multiply-adds.
-pub fn match_profile<const RHO: usize>(
-    profile: &[u8; RHO],
-    column: &Column<RHO>,
-    max_shift: usize,
-    mirrored: bool,
-) -> ProfileMatch {
-    match_profile_near(profile, column, 0, max_shift, mirrored)
-}
-
-/// [`match_profile`] over the shifts `|s − centre| ≤ radius` only (the scale
-/// search refines around shifts it already knows). Cost: at most
-/// `(2·radius + 1) × support` multiply-adds.
-pub fn match_profile_near<const RHO: usize>(
-    profile: &[u8; RHO],
-    column: &Column<RHO>,
-    centre: i32,
-    radius: usize,
-    mirrored: bool,
-) -> ProfileMatch {
-    match_curve(profile, column, centre, radius, mirrored).0
-}
-
-/// Half-width, in shifts, of the [`MatchCurve`] kept around the best shift.
-const CURVE_RADIUS: usize = 2;
-
-/// The normalised match score at the integer shifts around the best one, so
-/// that the score at any nearby shift can be read without another pass.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub(crate) struct MatchCurve {
-    best: i32,
-    scores_q16: [u32; 2 * CURVE_RADIUS + 1],
-}
-
-impl MatchCurve {
-    /// The score (Q16) at `shift_q16`, linear between the integer shifts;
-    /// 0 farther than [`CURVE_RADIUS`] from the best integer shift.
-    pub(crate) fn score_at(&self, shift_q16: i32) -> u32 {
-        let from_first =
-            i64::from(shift_q16) - (i64::from(self.best) - CURVE_RADIUS as i64) * 65536;
-        if from_first < 0 {
-            return 0;
-        }
-        let (i, f) = ((from_first >> 16) as usize, (from_first & 0xffff) as u64);
-        let at = |k: usize| u64::from(self.scores_q16.get(k).copied().unwrap_or(0));
-        ((at(i) * (65536 - f) + at(i + 1) * f) >> 16) as u32
-    }
-}
-
-/// [`match_profile_near`] and the scores around its best integer shift.
-/// Not inlined: the direction test calls it twice per column, and each
-/// inlined copy would keep its own locals on the caller's stack.
-#[inline(never)]
-pub(crate) fn match_curve<const RHO: usize>(
-    profile: &[u8; RHO],
-    column: &Column<RHO>,
-    centre: i32,
-    radius: usize,
-    mirrored: bool,
-) -> (ProfileMatch, MatchCurve) {
-    let none = (ProfileMatch::default(), MatchCurve::default());
-    // The mirrored profile P'[b] = P[RHO − b] is read backwards in place (no
-    // copy on the stack); bin 0 is never voted and counts as empty.
-    let Some(profile_body) = profile.get(1..) else {
-        return none;
-    };
-    let (Some((body_l, body_u)), Some((ql, qu))) = (support(profile_body), support(column)) else {
-        return none;
-    };
-    // Support of P (or P') in bins.
-    let (pl, pu) = if mirrored {
-        (RHO - 1 - body_u, RHO - 1 - body_l)
-    } else {
-        (body_l + 1, body_u + 1)
-    };
-    let p_sq: u64 = profile_body
-        .iter()
-        .map(|&v| u64::from(u32::from(v) * u32::from(v)))
-        .sum();
-    let q_sq: u64 = column
-        .iter()
-        .map(|&v| u64::from(u32::from(v) * u32::from(v)))
-        .sum();
-    let norm = sqrt_of_product(p_sq, q_sq);
-    if norm == 0 {
-        return none;
-    }
-    // No shift beyond the column can overlap anyway.
-    let radius = radius.min(RHO) as isize;
-    let centre = (centre as isize).clamp(-(RHO as isize), RHO as isize);
-    // Shifts that can overlap at all.
-    let s_min = (ql as isize - pu as isize).max(centre - radius);
-    let s_max = (qu as isize - pl as isize).min(centre + radius);
-    let overlap = Overlap {
-        profile: (pl, pu),
-        column: (ql, qu),
-        mirrored,
-    };
-    let mut best = (0u64, 0isize);
-    // The strongest local maxima (dot, shift), strongest first.
-    let mut maxima = [(0u64, 0isize); RUNNERS_UP + 1];
-    // Dots at s − 2 and s − 1 (0 before the window).
-    let (mut d2, mut d1) = (0u64, 0u64);
-    for s in s_min..=s_max + 1 {
-        let d = if s <= s_max {
-            overlap.dot(profile, column, s)
+impl HalfTurnTest {
+    /// `(winner − loser) / max(|winner|, |loser|)` in [0, 1] (improved mode),
+    /// or `|direct|` (paper mode, where `flipped = −direct`).
+    pub fn margin(&self) -> Score {
+        let (hi, lo) = if self.direct >= self.flipped {
+            (self.direct, self.flipped)
         } else {
-            0
+            (self.flipped, self.direct)
         };
-        if d > best.0 {
-            best = (d, s);
+        if lo == -hi {
+            return hi.abs();
         }
-        if d1 > d2 && d1 >= d {
-            keep_maximum(&mut maxima, (d1, s - 1));
+        let scale = hi.abs().max(lo.abs());
+        if scale == Score::ZERO {
+            Score::ZERO
+        } else {
+            hi.saturating_sub(lo).saturating_div(scale)
         }
-        (d2, d1) = (d1, d);
     }
-    let (peak, s) = best;
-    if peak == 0 {
-        return none;
-    }
-    let mut runners_up = [RunnerUp::default(); RUNNERS_UP];
-    let others = maxima
-        .iter()
-        .filter(|m| m.0 > 0 && (m.1 - s).abs() > RUNNER_UP_SEPARATION as isize);
-    for (slot, &(at, shift)) in runners_up.iter_mut().zip(others) {
-        let (before, after) = (
-            overlap.dot(profile, column, shift - 1),
-            overlap.dot(profile, column, shift + 1),
-        );
-        *slot = RunnerUp {
-            score_q16: normalised(at, norm),
-            shift_q16: ((shift as i64) << 16).saturating_add(parabola_offset(before, at, after))
-                as i32,
-        };
-    }
-    // The dot products at s − 2 ..= s + 2 (the middle one is the peak).
-    let mut near = [0u64; 2 * CURVE_RADIUS + 1];
-    for (k, d) in near.iter_mut().enumerate() {
-        *d = overlap.dot(profile, column, s + k as isize - CURVE_RADIUS as isize);
-    }
-    let offset = parabola_offset(near[CURVE_RADIUS - 1], peak, near[CURVE_RADIUS + 1]);
-    let curve = MatchCurve {
-        best: s as i32,
-        scores_q16: near.map(|d| normalised(d, norm)),
+}
+
+/// The paper's test of correlation peak `peak` (whole θ steps):
+/// α = `peak.shift` steps, scored by [`paper_asymmetry`] (`flipped =
+/// −direct`); no pose.
+pub(crate) fn paper<const N: usize, const HALF: usize>(
+    reference: &Signature<HALF>,
+    current: &Signature<HALF>,
+    peak: &Peak,
+) -> (Angle, HalfTurnTest, Option<Pose>) {
+    let alpha = Angle::from_steps_q16((peak.shift as i64) << 16, N);
+    let direct = Score::from_bits(paper_asymmetry(reference, current, peak.shift));
+    let chosen = if direct >= Score::ZERO {
+        HalfTurn::Direct
+    } else {
+        HalfTurn::Flipped
     };
     (
-        ProfileMatch {
-            score_q16: normalised(peak, norm),
-            shift_q16: ((s as i64) << 16).saturating_add(offset) as i32,
-            runners_up,
+        alpha,
+        HalfTurnTest {
+            chosen,
+            direct,
+            flipped: -direct,
         },
-        curve,
+        None,
     )
 }
 
-/// Vertex of the parabola through `(−1, before)`, `(0, peak)`, `(1, after)`,
-/// Q16 in [−½, ½]; 0 where the three do not bend down.
-fn parabola_offset(before: u64, peak: u64, after: u64) -> i64 {
-    let (before, peak, after) = (before as i64, peak as i64, after as i64);
-    let curvature = before - 2 * peak + after;
-    if curvature < 0 {
-        ((before - after) << 15)
-            .checked_div(curvature)
-            .unwrap_or(0)
-            .clamp(-(1 << 15), 1 << 15)
+/// The improved test of rotation `alpha` (a correlation peak, sub-step):
+/// every reference profile column θ against column θ + α of `grid`, direct
+/// and mirrored, within ±`max_shift` bins; the half with the larger mean
+/// match score wins. The columns at least 30 % as strong as the strongest
+/// give the pose: the translation fitted to their shifts, and the scale
+/// when `scale` is set. `column` is scratch.
+pub(crate) fn improved<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+>(
+    reference: &Reference<W, H, RW, HALF, RHO>,
+    grid: &Grid<W, H, RW>,
+    alpha: Angle,
+    scale: Option<ScaleRange>,
+    max_shift: usize,
+    column: &mut Column<RHO>,
+) -> (Angle, HalfTurnTest, Option<Pose>) {
+    let table = &TrigTable::<N>::TABLE;
+    let mut pose_columns: Vec<PoseColumn<'_, RHO>, PROFILE_COLUMNS> = Vec::new();
+    let mut direct_shifts: Vec<ColumnShift, PROFILE_COLUMNS> = Vec::new();
+    let mut flipped_shifts: Vec<ColumnShift, PROFILE_COLUMNS> = Vec::new();
+    let (mut direct_sum, mut flipped_sum) = (0u64, 0u64);
+    // For the pose, columns count by their strength D(θ): a weak column's
+    // shift is mostly clutter. For the direction every column counts the
+    // same (measured: weighting by strength flips more real scan pairs,
+    // strong walls are often mirror-symmetric corridors).
+    let strongest = reference
+        .profiles()
+        .first()
+        .map_or(1, |p| u64::from(reference.signature().peak(p.theta)).max(1));
+    for profile in reference.profiles() {
+        // Column of image 2 where the reference column θ lands under α.
+        let theta = Angle::from_steps_q16((profile.theta as i64) << 16, N);
+        let m = (theta + alpha).nearest_step(N);
+        vote_profile_column::<W, H, RW, N, HALF, RHO>(grid, m, UNIT_SCALE_Q16, column);
+        let direct = match_profile(&profile.counts, column, max_shift, false);
+        let flipped = match_profile(&profile.counts, column, max_shift, true);
+        let strength = u64::from(reference.signature().peak(profile.theta));
+        direct_sum += u64::from(direct.best.score_q16);
+        flipped_sum += u64::from(flipped.best.score_q16);
+        // Only columns at least 30 % as strong as the strongest locate
+        // the pose, weighted by score × relative strength.
+        if 10 * strength >= 3 * strongest {
+            let pose = PoseColumn {
+                counts: &profile.counts,
+                m,
+                normal_q15: (table.cos(m), table.sin(m)),
+                relative_q16: (strength << 16) / strongest,
+            };
+            let _ = direct_shifts.push(pose.shift(direct));
+            let _ = flipped_shifts.push(pose.shift(flipped));
+            let _ = pose_columns.push(pose);
+        }
+    }
+    let count = reference.profiles().len().max(1) as u64;
+    let direct = Score::from_bits((direct_sum / count).min(1 << 16) as i32);
+    let flipped = Score::from_bits((flipped_sum / count).min(1 << 16) as i32);
+    let chosen = if direct >= flipped {
+        HalfTurn::Direct
     } else {
-        0
-    }
-}
-
-/// Inserts local maximum `(dot, shift)` into `maxima` (strongest first)
-/// if it is stronger than the weakest kept.
-fn keep_maximum(maxima: &mut [(u64, isize)], mut candidate: (u64, isize)) {
-    for slot in maxima.iter_mut() {
-        if candidate.0 > slot.0 {
-            core::mem::swap(slot, &mut candidate);
-        }
-    }
-}
-
-/// Where a profile (or its mirror) and a column hold votes.
-struct Overlap {
-    /// Support of `P` (or `P'`), bins.
-    profile: (usize, usize),
-    /// Support of `Q`, bins.
-    column: (usize, usize),
-    /// `P'[b] = P[RHO − b]` instead of `P`.
-    mirrored: bool,
-}
-
-impl Overlap {
-    /// `Σ_b P[b]·Q[b + s]` (or with `P'`) over the bins where both hold
-    /// votes; 0 when they do not overlap. Not inlined: the match calls it
-    /// from several places and each inlined copy grew the caller's stack.
-    #[inline(never)]
-    fn dot<const RHO: usize>(&self, profile: &[u8; RHO], column: &Column<RHO>, s: isize) -> u64 {
-        let ((pl, pu), (ql, qu)) = (self.profile, self.column);
-        // b ∈ [pl, pu] with b + s ∈ [ql, qu].
-        let lo = (pl as isize).max(ql as isize - s);
-        let hi = (pu as isize).min(qu as isize - s);
-        if lo > hi {
-            return 0;
-        }
-        let (lo, hi) = (lo as usize, hi as usize);
-        let q_lo = (lo as isize + s) as usize;
-        let Some(q) = column.get(q_lo..=q_lo + (hi - lo)) else {
-            return 0;
-        };
-        // Partial sums of DOT_CHUNK products stay in u32 (one 32-bit
-        // multiply-add a bin on every target, no 64-bit multiply).
-        if self.mirrored {
-            // P'[lo..=hi] is P[RHO − hi ..= RHO − lo] reversed.
-            match profile.get(RHO - hi..=RHO - lo) {
-                Some(p) => p
-                    .rchunks(DOT_CHUNK)
-                    .zip(q.chunks(DOT_CHUNK))
-                    .map(|(p, q)| u64::from(dot_u32(p.iter().rev(), q)))
-                    .sum(),
-                None => 0,
-            }
-        } else {
-            match profile.get(lo..=hi) {
-                Some(p) => p
-                    .chunks(DOT_CHUNK)
-                    .zip(q.chunks(DOT_CHUNK))
-                    .map(|(p, q)| u64::from(dot_u32(p.iter(), q)))
-                    .sum(),
-                None => 0,
-            }
-        }
-    }
-}
-
-/// Products per `u32` partial sum of the profile match:
-/// `256 · 255 · 65 535 < 2³²`.
-const DOT_CHUNK: usize = 256;
-
-/// `Σ p·q` over at most [`DOT_CHUNK`] pairs, which cannot overflow `u32`.
-fn dot_u32<'a>(p: impl Iterator<Item = &'a u8>, q: &[u16]) -> u32 {
-    p.zip(q)
-        .map(|(&x, &y)| u32::from(x) * u32::from(y))
-        .fold(0u32, u32::wrapping_add)
-}
-
-/// First and last index holding a non-zero value.
-fn support<T: Copy + Into<u32>>(values: &[T]) -> Option<(usize, usize)> {
-    let first = values.iter().position(|&v| v.into() != 0)?;
-    let last = values.iter().rposition(|&v| v.into() != 0)?;
-    Some((first, last))
-}
-
-/// `d / norm` in Q16, at most 1 (`d ≤ norm` by Cauchy–Schwarz, up to the
-/// rounding of [`sqrt_of_product`]). `d < 2⁴⁸` (it is at most
-/// `RHO · 255 · 2¹⁶`), so `d · 2¹⁶` fits `u64`.
-fn normalised(d: u64, norm: u64) -> u32 {
-    ((d.min(u64::MAX >> 16) << 16) / norm.max(1)).min(1 << 16) as u32
-}
-
-/// `√(a·b)` without 128-bit arithmetic (whose routines cost the Cortex-M0
-/// dearly and took 220 B of stack): each factor is shifted left by an even
-/// amount to just below 2⁶², rooted (≥ 2³⁰ unless it is 0), and the product
-/// of the roots shifted back. Relative error below 2⁻²⁹; 0 when either is 0.
-fn sqrt_of_product(a: u64, b: u64) -> u64 {
-    let root = |v: u64| -> (u64, u32) {
-        let shift = v.leading_zeros().saturating_sub(2) & !1;
-        ((v << shift).isqrt(), shift / 2)
+        HalfTurn::Flipped
     };
-    let ((root_a, half_a), (root_b, half_b)) = (root(a), root(b));
-    root_a.saturating_mul(root_b) >> (half_a + half_b).min(63)
+    let mirrored = chosen == HalfTurn::Flipped;
+    let translation = match scale {
+        None => fit_translation(if mirrored {
+            &flipped_shifts
+        } else {
+            &direct_shifts
+        }),
+        Some(range) => {
+            let (shifts, scale_q16) = search_scale::<W, H, RW, N, HALF, RHO>(
+                grid,
+                &pose_columns,
+                PoseSearch {
+                    range,
+                    mirrored,
+                    max_shift,
+                },
+                column,
+            );
+            fit_translation(&shifts).map(|t| t.scaled(scale_q16))
+        }
+    };
+    (
+        alpha,
+        HalfTurnTest {
+            chosen,
+            direct,
+            flipped,
+        },
+        translation,
+    )
 }
 
 #[cfg(test)]
@@ -354,66 +229,18 @@ mod tests {
     use super::*;
 
     #[test]
-    fn finds_shift_and_mirror() {
-        let mut p = [0u8; 32];
-        p[10] = 9;
-        p[12] = 3;
-        p[20] = 5;
-        let mut q = [0u16; 32];
-        // Direct, shifted by +3.
-        for b in 0..29 {
-            q[b + 3] = u16::from(p[b]);
-        }
-        let direct = match_profile(&p, &q, 8, false);
-        let mirrored = match_profile(&p, &q, 8, true);
-        assert_eq!(direct.shift_q16 >> 16, 3);
-        assert_eq!(direct.score_q16, 1 << 16);
-        assert!(mirrored.score_q16 < direct.score_q16);
-        // Mirrored copy: Q[b] = P[32 − b − 2] → Q[b + (−2)]... matched by the mirrored test.
-        let mut m = [0u16; 32];
-        for b in 2..32 {
-            m[b] = u16::from(p[(32 - b + 2) % 32]);
-        }
-        assert!(
-            match_profile(&p, &m, 8, true).score_q16 > match_profile(&p, &m, 8, false).score_q16
-        );
-    }
-
-    #[test]
-    fn repeated_walls_give_a_runner_up() {
-        // One wall in the profile (bins 9–11), two parallel walls in the
-        // column: 3 bins on (the stronger) and 15 bins on.
-        let mut p = [0u8; 48];
-        p[9..12].copy_from_slice(&[2, 8, 2]);
-        let mut q = [0u16; 48];
-        q[12..15].copy_from_slice(&[2, 8, 2]);
-        q[24..27].copy_from_slice(&[1, 5, 1]);
-        let m = match_profile(&p, &q, 20, false);
-        assert_eq!(m.shift_q16, 3 << 16);
-        let [first, second] = m.runners_up;
-        assert_eq!(first.shift_q16, 15 << 16);
-        assert!(first.score_q16 > 0 && first.score_q16 < m.score_q16);
-        // Nothing else more than RUNNER_UP_SEPARATION from the best.
-        assert_eq!(second.score_q16, 0);
-    }
-
-    #[test]
-    fn sqrt_of_product_is_within_its_bound() {
-        for (a, b) in [
-            (1u64, 1u64),
-            (2, 3),
-            (65_025, 7),
-            (1 << 29, (1 << 41) - 1),
-            (123_456_789, 987_654),
-            (0, 5),
-        ] {
-            let exact = ((a as f64) * (b as f64)).sqrt();
-            let got = sqrt_of_product(a, b) as f64;
-            assert!(got <= exact + 1e-9, "{a} {b}: {got} > {exact}");
-            assert!(
-                got >= exact * (1.0 - 1e-8) - 1.0,
-                "{a} {b}: {got} ≪ {exact}"
-            );
-        }
+    fn margin_by_hand() {
+        let t = HalfTurnTest {
+            chosen: HalfTurn::Direct,
+            direct: Score::from_num(0.8),
+            flipped: Score::from_num(0.6),
+        };
+        assert!((t.margin().to_num::<f32>() - 0.25).abs() < 1e-3);
+        let p = HalfTurnTest {
+            chosen: HalfTurn::Flipped,
+            direct: Score::from_num(-0.3),
+            flipped: Score::from_num(0.3),
+        };
+        assert!((p.margin().to_num::<f32>() - 0.3).abs() < 1e-3);
     }
 }

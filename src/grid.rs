@@ -4,7 +4,7 @@
 //! the top of the image. Coordinates used by the method (DESIGN.md §2):
 //! `x = col − (W−1)/2`, `y = (H−1)/2 − row` (origin at the centre, y up).
 
-use crate::Error;
+use crate::error::Error;
 
 /// A `W × H` binary image, one bit per cell, `ROW_WORDS = row_words(W)` words
 /// per row (use the [`grid!`](crate::grid) macro to fill it in).

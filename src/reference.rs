@@ -5,8 +5,9 @@
 
 use crate::accumulator::{vote_column_split, Column, UNIT_SCALE_Q16};
 use crate::correlation::circular_distance;
+use crate::error::Error;
+use crate::grid::Grid;
 use crate::signature::{PeakKind, Signature};
-use crate::{Error, Grid};
 
 /// How many θ columns of the reference keep their ρ-profile.
 pub const PROFILE_COLUMNS: usize = 4;
@@ -16,7 +17,7 @@ pub const PROFILE_COLUMNS: usize = 4;
 pub struct Profile<const RHO: usize> {
     /// Column index `k ∈ [0, HALF)` (θ = πk/HALF).
     pub theta: usize,
-    /// The column's split votes ([`vote_column_split`](crate::vote_column_split))
+    /// The column's split votes ([`vote_column_split`](crate::stages::vote_column_split))
     /// `>> shift` per bin, with the smallest shift that fits `u8` (the
     /// matching is invariant to a common factor).
     pub counts: [u8; RHO],

@@ -1,4 +1,6 @@
-//! Laser scan → occupancy [`Grid`], and the estimate → robot motion.
+//! Laser scan → occupancy [`Grid`]: rasterising, and the automatic window
+//! radius ([`Raster::auto`]). The estimate → robot motion conversion is in
+//! [`motion`](crate::motion).
 //!
 //! # Frames
 //!
@@ -11,16 +13,6 @@
 //!   is the scan seen from above and a point `(x, y)` metres lands in the cell
 //!   containing `(x / cell, y / cell)` in the centred, y-up cell coordinates
 //!   of DESIGN.md §2. No mirror is involved: a left turn is a left turn.
-//!
-//! # From the estimate to the robot's motion
-//!
-//! Let the robot pose at scan 2, expressed in the robot frame at scan 1, be
-//! `(dx, dy, dθ)` (the convention of the scan-pair files): a point seen at
-//! `p₂` in frame 2 is at `p₁ = R(dθ)·p₂ + d` in frame 1. Hence
-//! `p₂ = R(−dθ)·(p₁ − d)`, and the estimator run on `raster(scan 1)`,
-//! `raster(scan 2)` (which finds `p₂ = R(α)·p₁ + t`) returns
-//! `α = −dθ` and `t = −R(α)·d / cell` pixels, i.e. `d = −R(dθ)·t·cell`.
-//! [`Raster::motion`] does this conversion.
 //!
 //! # Rasterization choices (measured)
 //!
@@ -44,7 +36,8 @@
 //! Everything here is `no_std`, allocation-free and panic-free: bad readings
 //! are dropped and counted in [`ScanStats`], never an error.
 
-use crate::{Angle, Grid, Translation};
+use crate::grid::Grid;
+use crate::math::{sin_cos_f32 as sin_cos, sqrt_f32 as sqrt};
 
 /// Pose of the sensor in the robot frame: metres, radians (x forward, y left,
 /// θ counter-clockwise).
@@ -280,39 +273,6 @@ impl Raster {
         }
         added
     }
-
-    /// The robot's motion between the two scans from an estimate on their
-    /// grids (see the module docs): `dθ = −α` in (−π, π], and, given the
-    /// estimate's translation `t` (pixels), `d = −R(dθ)·t·cell` metres, in
-    /// the robot frame at scan 1 — directly comparable with the scan-pair
-    /// files' `dx`, `dy`, `dtheta`. The translation's scale is not used: two
-    /// scans of one sensor have `s = 1` (leave the scale search off).
-    pub fn motion(&self, alpha: Angle, translation: Option<&Translation>) -> Motion {
-        let dtheta = angle_radians(-alpha);
-        let d = translation.and_then(|t| {
-            let (tx, ty) = (
-                t.x.to_num::<f32>() * self.cell,
-                t.y.to_num::<f32>() * self.cell,
-            );
-            let (s, c) = sin_cos(dtheta)?;
-            Some((-(c * tx - s * ty), -(s * tx + c * ty)))
-        });
-        Motion {
-            dtheta,
-            translation: d,
-        }
-    }
-}
-
-/// The robot's motion between two scans: its pose at scan 2 in the robot
-/// frame at scan 1 (the scan-pair files' convention).
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Motion {
-    /// Heading change, radians in (−π, π], positive for a left turn.
-    pub dtheta: f32,
-    /// `(dx, dy)` in metres, when the estimate has a translation.
-    pub translation: Option<(f32, f32)>,
 }
 
 /// The `percent`-th percentile (nearest rank, `percent` clamped to 1–100) of
@@ -357,60 +317,6 @@ fn saturate(n: usize) -> u32 {
     u32::try_from(n).unwrap_or(u32::MAX)
 }
 
-/// `α` in radians in (−π, π], to f32 precision.
-fn angle_radians(alpha: Angle) -> f32 {
-    let s = alpha.signed();
-    if s == i32::MIN {
-        return core::f32::consts::PI;
-    }
-    (f64::from(s) * (core::f64::consts::PI / 2_147_483_648.0)) as f32
-}
-
-/// `sin(x)`, `cos(x)` to about 1e-7 for `|x| ≤ 1e4`; `None` for non-finite
-/// or larger `x` (beam angles are a few radians). Quadrant reduction with a
-/// two-part π/2, then degree-9/10 Taylor polynomials on `|r| ≤ π/4`
-/// (truncation error < 2e-9).
-fn sin_cos(x: f32) -> Option<(f32, f32)> {
-    if !(x.is_finite() && x > -1.0e4 && x < 1.0e4) {
-        return None;
-    }
-    const FRAC_2_PI: f64 = core::f64::consts::FRAC_2_PI;
-    const PIO2: f64 = core::f64::consts::FRAC_PI_2;
-    let x = f64::from(x);
-    let q = x * FRAC_2_PI;
-    // Round to nearest without std: |q| < 7000.
-    let k = if q >= 0.0 {
-        (q + 0.5) as i64
-    } else {
-        (q - 0.5) as i64
-    };
-    let r = x - k as f64 * PIO2;
-    let r2 = r * r;
-    let s = r * (1.0 - r2 / 6.0 * (1.0 - r2 / 20.0 * (1.0 - r2 / 42.0 * (1.0 - r2 / 72.0))));
-    let c = 1.0
-        - r2 / 2.0 * (1.0 - r2 / 12.0 * (1.0 - r2 / 30.0 * (1.0 - r2 / 56.0 * (1.0 - r2 / 90.0))));
-    let (s, c) = match k.rem_euclid(4) {
-        0 => (s, c),
-        1 => (c, -s),
-        2 => (-s, -c),
-        _ => (-c, s),
-    };
-    Some((s as f32, c as f32))
-}
-
-/// Square root of a non-negative finite `v` (Newton from the bit-halving
-/// estimate, 4 steps: exact to f32 precision over the range used here).
-fn sqrt(v: f32) -> f32 {
-    if v.is_nan() || v <= 0.0 {
-        return 0.0;
-    }
-    let mut r = f32::from_bits((v.to_bits() >> 1) + 0x1fbd_1df5);
-    for _ in 0..4 {
-        r = 0.5 * (r + v / r);
-    }
-    r
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -425,32 +331,6 @@ mod tests {
             max_range: 30.0,
             offset: SensorOffset::default(),
         }
-    }
-
-    #[test]
-    fn sin_cos_is_accurate() {
-        for i in -2000..=2000 {
-            let x = i as f32 * 0.01;
-            let (s, c) = sin_cos(x).unwrap();
-            let (es, ec) = (f64::from(x).sin(), f64::from(x).cos());
-            assert!((f64::from(s) - es).abs() < 2e-7, "sin {x}");
-            assert!((f64::from(c) - ec).abs() < 2e-7, "cos {x}");
-        }
-        assert!(sin_cos(f32::NAN).is_none());
-        assert!(sin_cos(f32::INFINITY).is_none());
-    }
-
-    #[test]
-    fn sqrt_is_accurate() {
-        for v in [1e-6f32, 0.25, 2.0, 9.0, 1234.5, 1e6] {
-            let r = sqrt(v);
-            assert!(
-                (r - f64::from(v).sqrt() as f32).abs() <= 1e-6 * r.max(1.0),
-                "{v}"
-            );
-        }
-        assert_eq!(sqrt(-1.0), 0.0);
-        assert_eq!(sqrt(f32::NAN), 0.0);
     }
 
     #[test]
@@ -588,35 +468,5 @@ mod tests {
         let mut far = G::new();
         raster.connect(0.4).rasterize(&s, &mut far);
         assert_eq!(far.occupied(), 2);
-    }
-
-    #[test]
-    fn motion_inverts_the_scene_transform() {
-        // Robot turned left 30° and moved (1, 0.5) m; cell 0.1 m.
-        let dtheta = 30f32.to_radians();
-        let d = (1.0f32, 0.5f32);
-        // t = −R(α)·d / cell with α = −dθ.
-        let (s, c) = (-dtheta).sin_cos();
-        let t = (-(c * d.0 - s * d.1) / 0.1, -(s * d.0 + c * d.1) / 0.1);
-        let translation = Translation {
-            x: fixed::types::I16F16::from_num(t.0),
-            y: fixed::types::I16F16::from_num(t.1),
-            scale: fixed::types::I16F16::ONE,
-            residual: fixed::types::I16F16::ZERO,
-            columns: 2,
-            unobservable: None,
-        };
-        let raster = Raster::with_cell(0.1).unwrap();
-        let m = raster.motion(Angle::from_degrees(-30.0), Some(&translation));
-        assert!((m.dtheta - dtheta).abs() < 1e-5);
-        let (dx, dy) = m.translation.unwrap();
-        assert!(
-            (dx - d.0).abs() < 1e-3 && (dy - d.1).abs() < 1e-3,
-            "{dx} {dy}"
-        );
-        assert_eq!(raster.motion(Angle::HALF_TURN, None).translation, None);
-        assert!(
-            (raster.motion(Angle::HALF_TURN, None).dtheta - core::f32::consts::PI).abs() < 1e-6
-        );
     }
 }

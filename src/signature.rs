@@ -3,7 +3,7 @@
 //! `D(θ + π) = D(θ)`, `S(θ + π) = −S(θ)`.
 
 use crate::accumulator::{vote_column, vote_column_pair, Accumulator, Column};
-use crate::Grid;
+use crate::grid::Grid;
 
 /// How `D(θ)` reduces one accumulator column.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -7,7 +7,8 @@
 //! (half an LSB; the f64 evaluation adds < 1e-15), checked for every entry by
 //! the host tests.
 
-use crate::config::PI;
+use crate::angle::Angle;
+use crate::math::{cos_f64, sin_f64, PI};
 
 /// Fraction bits of the tables (Q15).
 pub const TRIG_FRACTION_BITS: u32 = 15;
@@ -64,28 +65,23 @@ const fn round_q15(v: f64) -> i32 {
 
 /// `sin(θ)` for `θ ∈ [0, π]` in const context: folded to `[0, π/2]`, then a
 /// 14-term Taylor series (error < 1e-16).
-const fn sin_f64(theta: f64) -> f64 {
-    let t = if theta > PI / 2.0 { PI - theta } else { theta };
-    let t2 = t * t;
-    let mut term = t;
-    let mut sum = 0.0;
-    let mut k = 1u32;
-    while k < 28 {
-        sum += term;
-        term *= -t2 / ((k + 1) * (k + 2)) as f64;
-        k += 2;
-    }
-    sum
-}
-
-/// `cos(θ)` for `θ ∈ [0, π]` in const context: `sin(π/2 − θ)` with the sign of
-/// the quadrant.
-const fn cos_f64(theta: f64) -> f64 {
-    if theta <= PI / 2.0 {
-        sin_f64(PI / 2.0 - theta)
-    } else {
-        -sin_f64(theta - PI / 2.0)
-    }
+/// `(cos α, sin α)` in Q15 for any binary angle: the nearest entry of the
+/// `N`-step table turned by the remainder `δ` (`|δ| ≤ π/N`) with
+/// `cos δ ≈ 1 − δ²/2`, `sin δ ≈ δ` (error < 2·10⁻⁵ for `N ≥ 90`).
+pub(crate) fn sin_cos_q15<const N: usize>(alpha: Angle) -> (i32, i32) {
+    let table = &TrigTable::<N>::TABLE;
+    let k = alpha.nearest_step(N);
+    let base = Angle::from_steps_q16((k as i64) << 16, N);
+    // δ in binary turns (2³² a turn) → Q15 radians: × 2π·2¹⁵/2³² = × π/2¹⁶,
+    // with π·2²⁹ = 1 686 629 713 (|δ| ≤ 2³¹/N: the product fits i64).
+    let delta = i64::from(alpha.0.wrapping_sub(base.0) as i32);
+    let delta_q15 = (delta * 1_686_629_713) >> 45;
+    let (c, s) = (i64::from(table.cos(k)), i64::from(table.sin(k)));
+    let half_sq = (delta_q15 * delta_q15) >> 16; // δ²/2, Q15
+    let cos_d = (1 << 15) - half_sq;
+    let cos = (c * cos_d - s * delta_q15) >> 15;
+    let sin = (s * cos_d + c * delta_q15) >> 15;
+    (cos as i32, sin as i32)
 }
 
 #[cfg(test)]
@@ -124,5 +120,14 @@ mod tests {
         let t = TrigTable::<360>::TABLE;
         assert_eq!((t.cos(0), t.sin(0)), (32768, 0));
         assert_eq!((t.cos(90), t.sin(90)), (0, 32768));
+    }
+    #[test]
+    fn sin_cos_between_steps() {
+        for deg in [0.0f32, 0.4, 1.3, 45.5, 91.7, 179.9, 200.25, 359.6] {
+            let (c, s) = sin_cos_q15::<360>(Angle::from_degrees(deg));
+            let r = f64::from(deg).to_radians();
+            assert!((f64::from(c) / 32768.0 - r.cos()).abs() < 1e-4, "{deg}");
+            assert!((f64::from(s) / 32768.0 - r.sin()).abs() < 1e-4, "{deg}");
+        }
     }
 }

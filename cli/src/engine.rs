@@ -5,9 +5,9 @@
 //! [`engine`] picks one at run time.
 
 use hough_heading::{
-    half_turn_steps, pyramid_words, rho_bins, row_words, Accumulator, Correlation, Estimate,
-    Estimator, Grid, Mode, PeakKind, Prior, Raster, ScaleRange, Scan, ScanStats, Signature,
-    Thresholds,
+    config::half_turn_steps, config::pyramid_words, config::rho_bins, config::row_words,
+    stages::Accumulator, stages::Correlation, stages::PeakKind, stages::Signature, Estimate,
+    Estimator, Grid, Mode, Prior, Raster, ScaleRange, Scan, ScanStats, Thresholds,
 };
 
 use crate::images::Image;

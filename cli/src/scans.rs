@@ -258,10 +258,10 @@ pub struct OutputLine {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cell_m: Option<f64>,
     /// RMS disagreement of the profile columns with the fitted translation,
-    /// metres (`Translation::residual` × the cell size).
+    /// metres (`Pose::residual` × the cell size).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub residual_m: Option<f64>,
-    /// Profile columns the translation fit kept (`Translation::columns`):
+    /// Profile columns the translation fit kept (`Pose::columns`):
     /// three or more cross-check each other.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub columns: Option<u8>,

@@ -502,13 +502,13 @@ fn connect_with_tiny_cells_does_not_panic() {
 // Stored references.
 
 mod stored_reference {
-    use hough_heading::{estimator, grid, reference, Error, Mode, REFERENCE_FORMAT};
+    use hough_heading::{estimator, grid, reference, stages::REFERENCE_FORMAT, Error, Mode};
 
     // 80 columns: 3 words a row, the last 16 bits of each row beyond W.
     type G = grid!(80, 64);
     type E = estimator!(80, 64, 180);
     type R = reference!(80, 64, 180);
-    const RW: usize = hough_heading::row_words(80);
+    const RW: usize = hough_heading::config::row_words(80);
 
     /// FNV-1a, the stored format's checksum.
     fn fnv1a(bytes: &[u8]) -> u32 {

@@ -24,7 +24,9 @@ use criterion::Criterion;
 use host_tests::eval::{grid_from_image, trial_pair, trial_seed};
 use host_tests::reference::{self as fref, Image, SignatureKind};
 use host_tests::scene::{Damage, SceneKind};
-use hough_heading::{half_turn_steps, rho_bins, row_words, Estimator, Grid, Mode};
+use hough_heading::{
+    config::half_turn_steps, config::rho_bins, config::row_words, Estimator, Grid, Mode,
+};
 
 const N: usize = 360;
 const HALF: usize = half_turn_steps(N);
@@ -130,7 +132,7 @@ fn main() {
         64,
         { row_words(64) },
         { rho_bins(64, 64) },
-        { hough_heading::pyramid_words(64, 64) },
+        { hough_heading::config::pyramid_words(64, 64) },
     > {
         scenes: Scenes::new(),
     };
@@ -138,7 +140,7 @@ fn main() {
         128,
         { row_words(128) },
         { rho_bins(128, 128) },
-        { hough_heading::pyramid_words(128, 128) },
+        { hough_heading::config::pyramid_words(128, 128) },
     > {
         scenes: Scenes::new(),
     };
@@ -146,7 +148,7 @@ fn main() {
         256,
         { row_words(256) },
         { rho_bins(256, 256) },
-        { hough_heading::pyramid_words(256, 256) },
+        { hough_heading::config::pyramid_words(256, 256) },
     > {
         scenes: Scenes::new(),
     };

@@ -265,7 +265,7 @@ pub fn outcome(estimate: &Estimate, truth: &Transform, half_turn_symmetric: bool
 
 /// The unit vector along `(ux, uy)` (`(1, 0)` for a zero vector).
 ///
-/// `Translation::unobservable` is documented as a unit vector, but the library
+/// `Pose::unobservable` is documented as a unit vector, but the library
 /// normalises it with `micromath`'s `sqrt` (about 5 % error), so its norm can
 /// be off by a few per cent; the evaluations normalise it again.
 pub fn unobservable_direction(ux: f64, uy: f64) -> (f64, f64) {

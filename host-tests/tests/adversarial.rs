@@ -24,9 +24,10 @@
 //! `Confident`) and now hold; the README's "Guarantees" section sums them up.
 
 use hough_heading::{
-    half_turn_steps, max_votes_per_bin, pyramid_words, rho_bins, row_words, vote_column,
-    Accumulator, Angle, Estimate, Estimator, Grid, Mode, PeakKind, Reference, Score, Signature,
-    Status, Thresholds, TrigTable,
+    config::half_turn_steps, config::max_votes_per_bin, config::pyramid_words, config::rho_bins,
+    config::row_words, stages::vote_column, stages::Accumulator, stages::PeakKind,
+    stages::Signature, stages::TrigTable, Angle, Estimate, Estimator, Grid, Mode, Reference, Score,
+    Status, Thresholds,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -916,11 +917,11 @@ fn public_functions_on_edge_arguments() {
         assert!(rho.is_power_of_two());
         let half_diagonal = ((side - 1) as f64 * std::f64::consts::SQRT_2) / 2.0;
         assert!((rho / 2) as f64 > half_diagonal + 1.0, "{side}");
-        let (lo, hi) = hough_heading::recommended_n_theta(side, side);
+        let (lo, hi) = hough_heading::config::recommended_n_theta(side, side);
         assert!(lo == side && hi > lo, "{side}: {lo}..{hi}");
         assert!(max_votes_per_bin(side, side) <= 2 * side);
     }
-    assert_eq!(hough_heading::recommended_n_theta(0, 0), (0, 1));
+    assert_eq!(hough_heading::config::recommended_n_theta(0, 0), (0, 1));
     assert_eq!(max_votes_per_bin(1, 1), 1);
     assert_eq!(half_turn_steps(4096), 2048);
 
@@ -939,8 +940,9 @@ fn public_functions_on_edge_arguments() {
 #[test]
 fn matching_functions_on_degenerate_data() {
     use hough_heading::{
-        fit_translation, match_profile, paper_asymmetry, ColumnShift, Correlation, HalfTurn,
-        HalfTurnTest, Peak, WeightedShift, RUNNERS_UP,
+        stages::fit_translation, stages::match_profile, stages::paper_asymmetry,
+        stages::ColumnShift, stages::Correlation, stages::Peak, stages::Shift, stages::RUNNERS_UP,
+        HalfTurn, HalfTurnTest,
     };
     const HALF: usize = 180;
     let zero = [0u16; HALF];
@@ -957,7 +959,7 @@ fn matching_functions_on_degenerate_data() {
         (&alternating, &spike),
     ] {
         let c = Correlation::of(a, b);
-        assert!(c.peaks.len() <= hough_heading::MAX_PEAKS);
+        assert!(c.peaks.len() <= hough_heading::stages::MAX_PEAKS);
         for p in &c.peaks {
             let s = c.score(p);
             assert!((-Score::ONE..=Score::ONE).contains(&s));
@@ -1000,13 +1002,16 @@ fn matching_functions_on_degenerate_data() {
             for shift in [0usize, 1, 10, RHO, isize::MAX as usize] {
                 for mirrored in [false, true] {
                     let m = match_profile(&p, &q, shift, mirrored);
-                    assert!(m.score_q16 <= 1 << 16);
+                    assert!(m.best.score_q16 <= 1 << 16);
                 }
             }
         }
     }
     let direct = match_profile(&profile, &column, 16, false);
-    assert_eq!((direct.score_q16, direct.shift_q16 >> 16), (1 << 16, 10));
+    assert_eq!(
+        (direct.best.score_q16, direct.best.shift_q16 >> 16),
+        (1 << 16, 10)
+    );
 
     // The paper's score of identical and opposite maps.
     let mut e =
@@ -1044,11 +1049,13 @@ fn matching_functions_on_degenerate_data() {
         let (sn, cs) = deg.to_radians().sin_cos();
         ColumnShift {
             normal_q15: ((cs * 32768.0) as i32, (sn * 32768.0) as i32),
-            shift_q16: s,
-            weight_q16: w,
-            runners_up: [WeightedShift {
+            best: Shift {
+                shift_q16: s,
+                score_q16: w,
+            },
+            runners_up: [Shift {
                 shift_q16: s.saturating_neg(),
-                weight_q16: w / 2,
+                score_q16: w / 2,
             }; RUNNERS_UP],
         }
     };
@@ -1074,11 +1081,13 @@ fn matching_functions_on_degenerate_data() {
     }
     let degenerate = ColumnShift {
         normal_q15: (i32::MAX, i32::MIN),
-        shift_q16: i32::MIN,
-        weight_q16: u32::MAX,
-        runners_up: [WeightedShift {
+        best: Shift {
+            shift_q16: i32::MIN,
+            score_q16: u32::MAX,
+        },
+        runners_up: [Shift {
             shift_q16: i32::MAX,
-            weight_q16: u32::MAX,
+            score_q16: u32::MAX,
         }; RUNNERS_UP],
     };
     let _ = fit_translation(&[degenerate; 5]);
@@ -1125,7 +1134,7 @@ fn reference_bytes_are_checked() {
                 let expected = if i == 3 && bad[3].is_ascii_digit() {
                     hough_heading::Error::ReferenceVersion {
                         found: bad[3].wrapping_sub(b'0'),
-                        expected: hough_heading::REFERENCE_FORMAT,
+                        expected: hough_heading::stages::REFERENCE_FORMAT,
                     }
                 } else {
                     hough_heading::Error::InvalidReference
@@ -1249,7 +1258,7 @@ fn paper_asymmetry_accepts_any_shift() {
         );
     let g = draw::<64, 64, 2>(&scenes()[5].segs, 0.0, (0.0, 0.0));
     let s = e.reference(&g).signature().clone();
-    let _ = hough_heading::paper_asymmetry(&s, &s, usize::MAX);
+    let _ = hough_heading::stages::paper_asymmetry(&s, &s, usize::MAX);
 }
 
 /// `match_profile(.., max_shift, ..)` casts `max_shift` to `isize`:
@@ -1262,8 +1271,8 @@ fn match_profile_accepts_any_max_shift() {
     let mut q = [0u16; 64];
     q[30] = 9;
     for shift in [usize::MAX, 1 << 63] {
-        let m = hough_heading::match_profile(&p, &q, shift, false);
-        assert_eq!(m.score_q16, 1 << 16, "max_shift {shift}");
+        let m = hough_heading::stages::match_profile(&p, &q, shift, false);
+        assert_eq!(m.best.score_q16, 1 << 16, "max_shift {shift}");
     }
 }
 
@@ -1440,7 +1449,7 @@ fn bounds_vote_counters_at_2048x2048() {
             let max = usize::from(*column.iter().max().unwrap());
             assert!(max <= bound, "k={k}: {max} > {bound}");
             largest = largest.max(max);
-            let stats = hough_heading::ColumnStats::of(&column, PeakKind::TwoBin);
+            let stats = hough_heading::stages::ColumnStats::of(&column, PeakKind::TwoBin);
             assert!(usize::from(stats.peak) <= 2 * bound);
         }
         // θ = 0: one bin per pixel column; 45°: a strip holds ~√2·2048 cells.
@@ -1523,7 +1532,7 @@ fn bounds_correlation_at_half_2048() {
         for i in 0..HALF {
             d2[(i + 100) % HALF] = d1[i];
         }
-        let c = hough_heading::Correlation::of(&d1, &d2);
+        let c = hough_heading::stages::Correlation::of(&d1, &d2);
         let best = c.best().unwrap();
         assert_eq!(best.shift, 100);
         assert_eq!(c.score(best), Score::ONE);
@@ -1551,7 +1560,7 @@ fn bounds_asymmetry_is_exact_or_saturated() {
         for _ in 0..rng.gen_range(1..60) {
             column[rng.gen_range(lo..=hi)] += rng.gen_range(1..40);
         }
-        let stats = hough_heading::ColumnStats::of(&column, PeakKind::SingleBin);
+        let stats = hough_heading::stages::ColumnStats::of(&column, PeakKind::SingleBin);
         let (l, u) = (
             column.iter().position(|&v| v > 0).unwrap(),
             column.iter().rposition(|&v| v > 0).unwrap(),
@@ -1581,11 +1590,11 @@ fn bounds_asymmetry_is_exact_or_saturated() {
     for v in column[RHO / 2..].iter_mut() {
         *v = 4096;
     }
-    let stats = hough_heading::ColumnStats::of(&column, PeakKind::SingleBin);
+    let stats = hough_heading::stages::ColumnStats::of(&column, PeakKind::SingleBin);
     assert_eq!(stats.asymmetry, i16::MAX);
     assert_eq!(stats.peak, 4096);
     // The two-bin reduction keeps the largest pair and leaves S(θ) at 0.
-    let stats = hough_heading::ColumnStats::of(&column, PeakKind::TwoBin);
+    let stats = hough_heading::stages::ColumnStats::of(&column, PeakKind::TwoBin);
     assert_eq!(stats.asymmetry, 0);
     assert_eq!(stats.peak, 8192);
 }

@@ -47,10 +47,11 @@
 use std::io::Write;
 
 use hough_heading::{
-    fit_translation, match_profile, paper_asymmetry, range_percentile, rho_bins, row_words, Angle,
-    ColumnShift, ColumnStats, Correlation, Estimate, Estimator, Grid, Mode, PeakKind, Prior,
-    Raster, Reference, ScaleRange, Scan, Score, SensorOffset, Signature, Status, Thresholds,
-    WeightedShift, MAX_FIT_COLUMNS, RUNNERS_UP,
+    config::rho_bins, config::row_words, stages::fit_translation, stages::match_profile,
+    stages::paper_asymmetry, stages::range_percentile, stages::ColumnShift, stages::ColumnStats,
+    stages::Correlation, stages::PeakKind, stages::Shift, stages::Signature,
+    stages::MAX_FIT_COLUMNS, stages::RUNNERS_UP, Angle, Estimate, Estimator, Grid, Mode, Prior,
+    Raster, Reference, ScaleRange, Scan, Score, SensorOffset, Status, Thresholds,
 };
 use hough_heading_cli as cli;
 use proptest::prelude::*;
@@ -339,9 +340,9 @@ macro_rules! sized {
             $h,
             { row_words($w) },
             $n,
-            { hough_heading::half_turn_steps($n) },
+            { hough_heading::config::half_turn_steps($n) },
             { rho_bins($w, $h) },
-            { hough_heading::pyramid_words($w, $h) },
+            { hough_heading::config::pyramid_words($w, $h) },
         >
     };
 }
@@ -367,7 +368,7 @@ fn fuzz_reference_from_bytes() {
     const HALF: usize = 64;
     const RHO: usize = rho_bins(64, 64);
     type R = Reference<64, 64, 2, HALF, RHO>;
-    type E = Estimator<64, 64, 2, 128, HALF, RHO, { hough_heading::pyramid_words(64, 64) }>;
+    type E = Estimator<64, 64, 2, 128, HALF, RHO, { hough_heading::config::pyramid_words(64, 64) }>;
     // Arbitrary bytes of any length around the format's size.
     fuzz(
         "Reference::from_bytes arbitrary",
@@ -415,7 +416,7 @@ fn fuzz_reference_from_bytes() {
             bytes[R::BYTES - 4..].copy_from_slice(&sum.to_le_bytes());
             if let Ok(reference) = R::from_bytes(&bytes) {
                 accepted.set(accepted.get() + 1);
-                prop_assert!(reference.profiles().len() <= hough_heading::PROFILE_COLUMNS);
+                prop_assert!(reference.profiles().len() <= hough_heading::stages::PROFILE_COLUMNS);
                 prop_assert!(reference.profiles().iter().all(|p| p.theta < HALF));
                 let mut out = vec![0u8; R::BYTES];
                 prop_assert_eq!(reference.to_bytes(&mut out), Ok(R::BYTES));
@@ -654,7 +655,7 @@ fn fuzz_reference_versions_and_hostile_grids() {
     const RW: usize = row_words(80);
     type R = hough_heading::reference!(80, 64, 180);
     type E = hough_heading::estimator!(80, 64, 180);
-    let expected = hough_heading::REFERENCE_FORMAT;
+    let expected = hough_heading::stages::REFERENCE_FORMAT;
     fuzz(
         "Reference::from_bytes other versions",
         5000,
@@ -781,7 +782,7 @@ fn fuzz_matching_functions() {
         ),
         |(p, q, shift, mirrored)| {
             let m = match_profile(&p, &q, shift, mirrored);
-            prop_assert!(m.score_q16 <= 1 << 16);
+            prop_assert!(m.best.score_q16 <= 1 << 16);
             Ok(())
         },
     );
@@ -835,11 +836,13 @@ fn fuzz_matching_functions() {
     )
         .prop_map(|(n, s, w, r)| ColumnShift {
             normal_q15: n,
-            shift_q16: s,
-            weight_q16: w,
-            runners_up: r.map(|(shift_q16, weight_q16)| WeightedShift {
+            best: Shift {
+                shift_q16: s,
+                score_q16: w,
+            },
+            runners_up: r.map(|(shift_q16, score_q16)| Shift {
                 shift_q16,
-                weight_q16,
+                score_q16,
             }),
         });
     fuzz(
@@ -977,7 +980,7 @@ fn fuzz_scans() {
                 128,
                 64,
                 128,
-                { hough_heading::pyramid_words(64, 64) },
+                { hough_heading::config::pyramid_words(64, 64) },
             >::new(Mode::Improved);
             let est = e.estimate_pair(&g1, &g2);
             check(&est, false, None, Some(true))?;
@@ -1451,14 +1454,14 @@ enum Hostile {
 /// The layout of `Reference::<64, 64, 2, 64, RHO>` bytes.
 mod layout64 {
     pub const HALF: usize = 64;
-    pub const RHO: usize = hough_heading::rho_bins(64, 64);
+    pub const RHO: usize = hough_heading::config::rho_bins(64, 64);
     pub const KIND: usize = 12;
     pub const PROFILES: usize = 13;
     pub const OCCUPIED: usize = 16;
     pub const PEAKS: usize = 20;
     pub const ASYMMETRY: usize = PEAKS + 2 * HALF;
     pub const PROFILE: usize = ASYMMETRY + 2 * HALF;
-    pub const GRID: usize = PROFILE + hough_heading::PROFILE_COLUMNS * (2 + RHO);
+    pub const GRID: usize = PROFILE + hough_heading::stages::PROFILE_COLUMNS * (2 + RHO);
 }
 
 /// Edits; `s_min` lets `S(θ)` take `i16::MIN` (the known defect of issue 14
@@ -1473,7 +1476,7 @@ fn hostile(s_min: bool) -> impl Strategy<Value = Hostile> {
         Just(0i16),
         low..=i16::MAX
     ];
-    let bound = hough_heading::max_votes_per_bin(64, 64) as u16;
+    let bound = hough_heading::config::max_votes_per_bin(64, 64) as u16;
     let d = prop_oneof![
         Just(u16::MAX),
         Just(bound),
@@ -1481,7 +1484,7 @@ fn hostile(s_min: bool) -> impl Strategy<Value = Hostile> {
         Just(0u16),
         any::<u16>()
     ];
-    let slot = 0..hough_heading::PROFILE_COLUMNS;
+    let slot = 0..hough_heading::stages::PROFILE_COLUMNS;
     prop_oneof![
         (0..HALF, s.clone()).prop_map(|(k, v)| Hostile::Asymmetry(k, v)),
         s.prop_map(Hostile::AsymmetryAll),
@@ -1495,7 +1498,7 @@ fn hostile(s_min: bool) -> impl Strategy<Value = Hostile> {
         (slot.clone(), 0..RHO, any::<u8>()).prop_map(|(i, r, v)| Hostile::ProfileCount(i, r, v)),
         (slot, prop_oneof![Just(0u8), Just(255u8), any::<u8>()])
             .prop_map(|(i, v)| Hostile::ProfileFill(i, v)),
-        (0u8..=hough_heading::PROFILE_COLUMNS as u8).prop_map(Hostile::Profiles),
+        (0u8..=hough_heading::stages::PROFILE_COLUMNS as u8).prop_map(Hostile::Profiles),
         (0u8..=1).prop_map(Hostile::Kind),
         any::<u64>().prop_map(Hostile::GridOf),
     ]
@@ -1562,7 +1565,7 @@ fn apply_hostile(bytes: &mut [u8], edits: &[Hostile]) {
 fn hostile_references(base: u32, seed: u8, s_min: bool) {
     use layout64::{HALF, RHO};
     type R = Reference<64, 64, 2, HALF, RHO>;
-    type E = Estimator<64, 64, 2, 128, HALF, RHO, { hough_heading::pyramid_words(64, 64) }>;
+    type E = Estimator<64, 64, 2, 128, HALF, RHO, { hough_heading::config::pyramid_words(64, 64) }>;
     let accepted = std::cell::Cell::new(0u32);
     let name = format!(
         "Reference::from_bytes hostile fields{}, checksummed",
@@ -1613,7 +1616,7 @@ fn hostile_references(base: u32, seed: u8, s_min: bool) {
                     (current.signature(), signature),
                     (signature, signature),
                 ] {
-                    let c = hough_heading::paper_asymmetry(s1, s2, k);
+                    let c = hough_heading::stages::paper_asymmetry(s1, s2, k);
                     prop_assert!((-(1 << 16)..=1 << 16).contains(&c), "{c}");
                 }
             }

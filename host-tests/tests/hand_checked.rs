@@ -22,8 +22,8 @@ use host_tests::scene::{
 };
 use host_tests::verify_reference as vref;
 use hough_heading::{
-    estimator, grid, max_votes_per_bin, rho_bins, Accumulator, Angle, Estimate, Estimator, Mode,
-    PeakKind, Score, Signature, Status,
+    config::max_votes_per_bin, config::rho_bins, estimator, grid, stages::Accumulator,
+    stages::PeakKind, stages::Signature, Angle, Estimate, Estimator, Mode, Score, Status,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -42,11 +42,20 @@ fn grid(cells: impl IntoIterator<Item = (usize, usize)>) -> G {
 
 fn signature(g: &G, kind: PeakKind) -> Signature<HALF> {
     let mut columns = [[0u16; RHO]; 2];
-    Signature::stream::<64, 64, { hough_heading::row_words(64) }, 360, RHO>(g, kind, &mut columns)
+    Signature::stream::<64, 64, { hough_heading::config::row_words(64) }, 360, RHO>(
+        g,
+        kind,
+        &mut columns,
+    )
 }
 
 fn votes(g: &G) -> Box<A> {
-    Box::new(A::vote::<64, 64, { hough_heading::row_words(64) }, 360>(g))
+    Box::new(A::vote::<
+        64,
+        64,
+        { hough_heading::config::row_words(64) },
+        360,
+    >(g))
 }
 
 fn degrees(a: Angle) -> f64 {
@@ -328,8 +337,15 @@ fn l_shape() {
     assert_eq!(verified.overlap, Score::ONE);
     assert_eq!(alignment_at(&verified, 90.0), Some(1.0));
     for mode in [Mode::Paper, Mode::Improved] {
-        let mut e: Estimator<64, 64, 2, 360, HALF, RHO, { hough_heading::pyramid_words(64, 64) }> =
-            E::new(mode);
+        let mut e: Estimator<
+            64,
+            64,
+            2,
+            360,
+            HALF,
+            RHO,
+            { hough_heading::config::pyramid_words(64, 64) },
+        > = E::new(mode);
         let same = e.estimate_pair(&g, &g);
         assert!(near(same.alpha, 0.0), "{mode:?}: {same:?}");
         assert_eq!(same.status, Status::Confident, "{mode:?}: {same:?}");

@@ -27,8 +27,9 @@ use host_tests::eval::{
 use host_tests::reference::Image;
 use host_tests::scene::{render_pair, rotate_image, Damage, SceneKind, Transform};
 use hough_heading::{
-    rho_bins, row_words, Accumulator, Angle, Correlation, Error, Estimate, Estimator, Grid,
-    HalfTurn, Mode, PeakKind, Prior, Reference, ScaleRange, Score, Signature, Status,
+    config::rho_bins, config::row_words, stages::Accumulator, stages::Correlation,
+    stages::PeakKind, stages::Signature, Angle, Error, Estimate, Estimator, Grid, HalfTurn, Mode,
+    Prior, Reference, ScaleRange, Score, Status,
 };
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
@@ -649,7 +650,7 @@ macro_rules! configuration {
             const HALF: usize = $n / 2;
             const RW: usize = row_words($w);
             const RHO: usize = rho_bins($w, $h);
-            const PW: usize = hough_heading::pyramid_words($w, $h);
+            const PW: usize = hough_heading::config::pyramid_words($w, $h);
 
             proptest! {
                 #![proptest_config(config())]

@@ -40,7 +40,8 @@ use host_tests::eval::{angle_error_deg, axis_error_deg, grid_from_image, trial_p
 use host_tests::reference::{self as fref, Image, RhoTolerance, SignatureKind};
 use host_tests::scene::{Damage, SceneKind};
 use hough_heading::{
-    rho_bins, row_words, Accumulator, Estimator, Mode, PeakKind, Score, Signature, Status,
+    config::rho_bins, config::row_words, stages::Accumulator, stages::PeakKind, stages::Signature,
+    Estimator, Mode, Score, Status,
 };
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
@@ -227,7 +228,7 @@ macro_rules! configuration {
                     seed in any::<u64>(),
                 ) {
                     let (_, pair) = trial_pair(kind, &damage, $w, $h, true, seed);
-                    check_signature::<$w, $h, { row_words($w) }, $n, HALF, { rho_bins($w, $h) }, { hough_heading::pyramid_words($w, $h) }>(
+                    check_signature::<$w, $h, { row_words($w) }, $n, HALF, { rho_bins($w, $h) }, { hough_heading::config::pyramid_words($w, $h) }>(
                         &pair.i2.image,
                     )?;
                 }
@@ -238,7 +239,7 @@ macro_rules! configuration {
                     seed in any::<u64>(),
                 ) {
                     let image = noise_image($w, $h, density, seed);
-                    check_signature::<$w, $h, { row_words($w) }, $n, HALF, { rho_bins($w, $h) }, { hough_heading::pyramid_words($w, $h) }>(
+                    check_signature::<$w, $h, { row_words($w) }, $n, HALF, { rho_bins($w, $h) }, { hough_heading::config::pyramid_words($w, $h) }>(
                         &image,
                     )?;
                 }
@@ -253,7 +254,7 @@ macro_rules! configuration {
                     damage in prop::sample::select(vec![Damage::CLEAN, Damage::MODERATE]),
                     seed in any::<u64>(),
                 ) {
-                    check_rotation::<$w, $h, { row_words($w) }, $n, HALF, { rho_bins($w, $h) }, { hough_heading::pyramid_words($w, $h) }>(
+                    check_rotation::<$w, $h, { row_words($w) }, $n, HALF, { rho_bins($w, $h) }, { hough_heading::config::pyramid_words($w, $h) }>(
                         kind, &damage, seed,
                     )?;
                 }
@@ -279,7 +280,7 @@ fn full_and_empty_images_match_the_reference() {
             512,
             256,
             { rho_bins(96, 64) },
-            { hough_heading::pyramid_words(96, 64) },
+            { hough_heading::config::pyramid_words(96, 64) },
         >(&image)
         .unwrap();
     }

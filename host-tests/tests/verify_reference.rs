@@ -44,7 +44,7 @@ mod common;
 use host_tests::eval::{angle_rad, grid_from_image, trial_pair};
 use host_tests::scene::{Damage, SceneKind};
 use host_tests::verify_reference as vref;
-use hough_heading::{rho_bins, row_words, Estimator, Mode, Status, Thresholds};
+use hough_heading::{config::rho_bins, config::row_words, Estimator, Mode, Status, Thresholds};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
 
@@ -196,7 +196,7 @@ macro_rules! configuration {
                         $n,
                         { $n / 2 },
                         { rho_bins($w, $h) },
-                        { hough_heading::pyramid_words($w, $h) },
+                        { hough_heading::config::pyramid_words($w, $h) },
                     >(kind, &damage, seed)?;
                 }
             }
@@ -211,7 +211,7 @@ configuration!(c128x128_n360, 128, 128, 360);
 /// The reference scores as many points as the library.
 #[test]
 fn the_reference_samples_as_many_points_as_the_library() {
-    assert_eq!(vref::ALIGN_POINTS, hough_heading::ALIGN_POINTS);
+    assert_eq!(vref::ALIGN_POINTS, hough_heading::config::ALIGN_POINTS);
     for (w, h) in [
         (2, 2),
         (64, 64),
@@ -223,7 +223,7 @@ fn the_reference_samples_as_many_points_as_the_library() {
     ] {
         assert_eq!(
             vref::points_for(w, h),
-            hough_heading::align_points(w, h),
+            hough_heading::config::align_points(w, h),
             "{w}×{h}"
         );
     }

@@ -41,8 +41,8 @@ use host_tests::eval::{
 use host_tests::scene::{render_pair, Damage, SceneKind, Transform};
 use host_tests::stats::{markdown_header, markdown_row, quantile};
 use hough_heading::{
-    half_turn_steps, pyramid_words, rho_bins, row_words, Estimator, Mode, ScaleRange, Score,
-    Status, Thresholds,
+    config::half_turn_steps, config::pyramid_words, config::rho_bins, config::row_words, Estimator,
+    Mode, ScaleRange, Score, Status, Thresholds,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -129,6 +129,6 @@ pub trait Occupied {
 impl<const W: usize, const H: usize, const RW: usize> Occupied for Grid<W, H, RW> {
     fn points(&self) -> u32 {
         self.occupied()
-            .min(hough_heading::align_points(W, H) as u32)
+            .min(hough_heading::config::align_points(W, H) as u32)
     }
 }

@@ -108,13 +108,13 @@ impl Config {
 }
 
 /// The configurations: each side with `N_THETA` = 360 and the two ends of the
-/// paper's recommended range (`hough_heading::recommended_n_theta`; the upper
+/// paper's recommended range (`hough_heading::config::recommended_n_theta`; the upper
 /// end is exclusive, so the largest even value below it). With `only` (a
 /// key such as `128x128/360`), just that one.
 pub fn configs(only: Option<&str>) -> Vec<Config> {
     let mut out = Vec::new();
     for side in SIDES {
-        let (min, max_exclusive) = hough_heading::recommended_n_theta(side, side);
+        let (min, max_exclusive) = hough_heading::config::recommended_n_theta(side, side);
         let max = (max_exclusive - 1) & !1;
         for (n_theta, choice) in [(min, "min"), (360, "360"), (max, "max")] {
             if !out

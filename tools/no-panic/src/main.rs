@@ -30,12 +30,14 @@
 
 use core::hint::black_box;
 use hough_heading::{
-    fit_translation, match_profile, match_profile_near, max_votes_per_bin, paper_asymmetry,
-    pyramid_levels, pyramid_words, range_percentile, recommended_n_theta, rho_bins, row_words,
-    vote_column, vote_column_split, Accumulator, Angle, Column, ColumnShift, ColumnStats,
-    Correlation, Error, Estimator, Grid, Mode, Peak, PeakKind, Prior, Raster, Reference,
-    ScaleRange, Scan, ScanStats, Score, SensorOffset, Signature, Thresholds, WeightedShift,
-    ALIGN_POINTS, REFERENCE_FORMAT, RUNNERS_UP,
+    config::max_votes_per_bin, config::pyramid_levels, config::pyramid_words,
+    config::recommended_n_theta, config::rho_bins, config::row_words, config::ALIGN_POINTS,
+    stages::fit_translation, stages::match_profile, stages::match_profile_near,
+    stages::paper_asymmetry, stages::range_percentile, stages::vote_column,
+    stages::vote_column_split, stages::Accumulator, stages::Column, stages::ColumnShift,
+    stages::ColumnStats, stages::Correlation, stages::Peak, stages::PeakKind, stages::Shift,
+    stages::Signature, stages::REFERENCE_FORMAT, stages::RUNNERS_UP, Angle, Error, Estimator, Grid,
+    Mode, Prior, Raster, Reference, ScaleRange, Scan, ScanStats, Score, SensorOffset, Thresholds,
 };
 
 /// Any value of `T`, as far as the optimiser knows.
@@ -260,12 +262,14 @@ fn entry_matching<const HALF: usize, const RHO: usize>() {
 fn entry_translation() {
     let shift = ColumnShift {
         normal_q15: (opaque(0), opaque(0)),
-        shift_q16: opaque(0),
-        weight_q16: opaque(0),
+        best: Shift {
+            shift_q16: opaque(0),
+            score_q16: opaque(0),
+        },
         runners_up: opaque(
-            [WeightedShift {
+            [Shift {
                 shift_q16: opaque(0),
-                weight_q16: opaque(0),
+                score_q16: opaque(0),
             }; RUNNERS_UP],
         ),
     };
@@ -294,7 +298,7 @@ fn entry_angle() {
 #[inline(never)]
 fn entry_config() {
     opaque(row_words(opaque(0)));
-    opaque(hough_heading::half_turn_steps(opaque(0)));
+    opaque(hough_heading::config::half_turn_steps(opaque(0)));
     opaque(rho_bins(opaque(0), opaque(0)));
     opaque(recommended_n_theta(opaque(0), opaque(0)));
     opaque(max_votes_per_bin(opaque(0), opaque(0)));
@@ -365,7 +369,7 @@ macro_rules! configuration {
             $h,
             { row_words($w) },
             $n,
-            { hough_heading::half_turn_steps($n) },
+            { hough_heading::config::half_turn_steps($n) },
             { rho_bins($w, $h) },
             { pyramid_words($w, $h) },
         >($bytes, $version_2)

@@ -12,29 +12,21 @@
 use fixed::types::I16F16;
 use micromath::F32Ext;
 
-use crate::direction::RUNNERS_UP;
+use crate::math::sqrt_f32_fast as sqrt;
+
+use crate::profile::{Shift, RUNNERS_UP};
 
 /// The shift of one column, as measured by the profile match.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ColumnShift {
     /// Unit normal `(cos ψ, sin ψ)` of the column in image 2, Q15.
     pub normal_q15: (i32, i32),
-    /// Shift `s` in pixels, Q16.
-    pub shift_q16: i32,
-    /// Weight (match score), Q16 in [0, 1].
-    pub weight_q16: u32,
-    /// The match's runner-up shifts, weighted like `weight_q16` (weight 0:
-    /// none): the fit may pick one where the best shifts disagree.
-    pub runners_up: [WeightedShift; RUNNERS_UP],
-}
-
-/// A candidate shift of a column and its weight.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct WeightedShift {
-    /// Shift in pixels, Q16.
-    pub shift_q16: i32,
-    /// Weight, Q16 in [0, 1]; 0 means no candidate.
-    pub weight_q16: u32,
+    /// The best shift `s` (pixels, Q16) and its weight (`score_q16`: match
+    /// score times relative strength, Q16 in [0, 1]).
+    pub best: Shift,
+    /// The match's runner-up shifts, weighted like `best` (score 0: none):
+    /// the fit may pick one where the best shifts disagree.
+    pub runners_up: [Shift; RUNNERS_UP],
 }
 
 /// The rest of the pose after the rotation: translation `t` (pixels, in the
@@ -42,7 +34,7 @@ pub struct WeightedShift {
 /// appears in image 2 at `s·R(α)·p + t`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Translation {
+pub struct Pose {
     /// `t_x`, pixels.
     pub x: I16F16,
     /// `t_y`, pixels.
@@ -55,7 +47,7 @@ pub struct Translation {
     /// determined and the residual is 0 whatever the shifts: see
     /// [`columns`](Self::columns).
     pub residual: I16F16,
-    /// Columns kept in the fit (1 to [`PROFILE_COLUMNS`](crate::PROFILE_COLUMNS)
+    /// Columns kept in the fit (1 to [`PROFILE_COLUMNS`](crate::stages::PROFILE_COLUMNS)
     /// from the estimator; a column none of whose shifts lies within 2 px of
     /// the best-supported translation is dropped). Only three or more can
     /// disagree: with one (or one direction) the translation is partly
@@ -75,7 +67,7 @@ const OBSERVABILITY: f32 = 0.05;
 /// not support it.
 const OUTLIER_PX: f32 = 2.0;
 /// At most this many columns take part in the fit (the estimator gives
-/// [`PROFILE_COLUMNS`](crate::PROFILE_COLUMNS)); later ones are ignored.
+/// [`PROFILE_COLUMNS`](crate::stages::PROFILE_COLUMNS)); later ones are ignored.
 pub const MAX_FIT_COLUMNS: usize = 8;
 
 /// Which of a column's shifts the fit uses: its best (0), a runner-up
@@ -96,20 +88,20 @@ const DROPPED: Choice = u8::MAX;
 /// scored by the summed weight of the columns with a candidate within 2 px
 /// of its prediction, and the best-supported one picks each column's shift
 /// (or drops the column) for the final least-squares fit.
-pub fn fit_translation(shifts: &[ColumnShift]) -> Option<Translation> {
+pub fn fit_translation(shifts: &[ColumnShift]) -> Option<Pose> {
     fit(shifts, CANDIDATES)
 }
 
 /// [`fit_translation`] on the best shifts alone (runners-up ignored): the
 /// scale search scores every scale with it, where weighing the runners-up
 /// would cost FPU-less targets dearly at scales whose columns disagree anyway.
-pub(crate) fn fit_best_shifts(shifts: &[ColumnShift]) -> Option<Translation> {
+pub(crate) fn fit_best_shifts(shifts: &[ColumnShift]) -> Option<Pose> {
     fit(shifts, 1)
 }
 
 /// The fit over each column's first `candidates` shifts (1: the best only).
 #[inline(never)]
-fn fit(shifts: &[ColumnShift], candidates: Choice) -> Option<Translation> {
+fn fit(shifts: &[ColumnShift], candidates: Choice) -> Option<Pose> {
     let shifts = shifts.get(..MAX_FIT_COLUMNS).unwrap_or(shifts);
     let mut choices: [Choice; MAX_FIT_COLUMNS] = [0; MAX_FIT_COLUMNS];
     let mut fit = solve(shifts, &choices)?;
@@ -142,7 +134,7 @@ fn fit(shifts: &[ColumnShift], candidates: Choice) -> Option<Translation> {
     } else {
         0.0
     };
-    Some(Translation {
+    Some(Pose {
         x: to_fixed(x),
         y: to_fixed(y),
         scale: I16F16::ONE,
@@ -152,7 +144,7 @@ fn fit(shifts: &[ColumnShift], candidates: Choice) -> Option<Translation> {
     })
 }
 
-impl Translation {
+impl Pose {
     /// The ρ shift `n·t` (Q16 pixels) this translation gives a column with
     /// unit normal `n` (Q15), saturated to `i32`.
     pub fn column_shift_q16(&self, normal_q15: (i32, i32)) -> i32 {
@@ -176,19 +168,6 @@ impl Translation {
     }
 }
 
-/// `√v` to f32 precision: `micromath`'s estimate (≈ 5 % error) refined by
-/// two Newton steps (relative error squared each step). 0 for `v ≤ 0`.
-fn sqrt(v: f32) -> f32 {
-    if v.is_nan() || v <= 0.0 {
-        return 0.0;
-    }
-    let mut r = F32Ext::sqrt(v);
-    for _ in 0..2 {
-        r = 0.5 * (r + v / r);
-    }
-    r
-}
-
 /// Q16.16 from `f32`, saturating; NaN → 0 (never panics).
 fn to_fixed(v: f32) -> I16F16 {
     // `as` saturates and maps NaN to 0.
@@ -202,10 +181,10 @@ const CANDIDATES: Choice = 1 + RUNNERS_UP as Choice;
 /// when dropped, absent or of zero weight.
 fn candidate(c: &ColumnShift, choice: Choice) -> Option<(f32, f32)> {
     let (shift_q16, weight_q16) = match choice {
-        0 => (c.shift_q16, c.weight_q16),
+        0 => (c.best.shift_q16, c.best.score_q16),
         k => {
             let r = c.runners_up.get(usize::from(k).checked_sub(1)?)?;
-            (r.shift_q16, r.weight_q16)
+            (r.shift_q16, r.score_q16)
         }
     };
     (weight_q16 > 0).then(|| (shift_q16 as f32 / 65536.0, weight_q16 as f32 / 65536.0))
@@ -356,9 +335,11 @@ mod tests {
         let shift = c * t.0 + s * t.1 + noise;
         ColumnShift {
             normal_q15: ((c * 32768.0) as i32, (s * 32768.0) as i32),
-            shift_q16: (shift * 65536.0) as i32,
-            weight_q16: 1 << 16,
-            runners_up: [WeightedShift::default(); RUNNERS_UP],
+            best: Shift {
+                shift_q16: (shift * 65536.0) as i32,
+                score_q16: 1 << 16,
+            },
+            runners_up: [Shift::default(); RUNNERS_UP],
         }
     }
 
@@ -368,11 +349,11 @@ mod tests {
         let right = column(deg, t, 0.0);
         ColumnShift {
             runners_up: [
-                WeightedShift {
-                    shift_q16: right.shift_q16,
-                    weight_q16: 3 << 14,
+                Shift {
+                    shift_q16: right.best.shift_q16,
+                    score_q16: 3 << 14,
                 },
-                WeightedShift::default(),
+                Shift::default(),
             ],
             ..column(deg, t, wrong)
         }

@@ -8,13 +8,21 @@
 //! grid, then halves the step three times around the best point and ends
 //! with a parabola through the best point and its two nearest neighbours.
 
-use crate::{Error, Score};
+use crate::accumulator::{vote_profile_column, Column};
+use crate::error::Error;
+use crate::grid::Grid;
+use crate::math::parabola_vertex;
+use crate::pose::translation::{fit_best_shifts, ColumnShift};
+use crate::profile::{match_curve, MatchCurve, ProfileMatch, Shift};
+use crate::reference::PROFILE_COLUMNS;
+use crate::Score;
+use heapless::Vec;
 
 /// The scales the estimator searches, `min ≤ s ≤ max`, with
 /// `0.5 ≤ min ≤ max ≤ 2`.
 ///
 /// Cost: one evaluation re-votes the reference's profile columns (at most
-/// [`PROFILE_COLUMNS`](crate::PROFILE_COLUMNS)) and matches them; a search
+/// [`PROFILE_COLUMNS`](crate::stages::PROFILE_COLUMNS)) and matches them; a search
 /// makes at most `MAX_COARSE_STEPS + 1 + 9 = 26` evaluations (17 + 9 for the
 /// default range 0.8–1.25), the coarse ones over the whole shift window.
 /// Below `s` = 1 the re-voted columns stretch by `1/s`: lines farther than
@@ -125,30 +133,128 @@ pub(crate) fn search(range: ScaleRange, mut score: impl FnMut(u32, Window) -> u6
         score((s + half).min(max), Window::Near) as i64,
     );
     // Scores are at most a few 2¹⁶ (Q16 weights of ≤ 4 columns) and the
-    // spacing below 2¹⁶, so nothing here comes near the i64 range; the
-    // checked and saturating forms keep that free of panic paths anyway
-    // (`max`/`min` rather than `clamp`, whose bounds the compiler cannot see
-    // are ordered).
+    // spacing below 2¹⁶, so nothing here comes near the i64 range (the
+    // vertex is exact and panic-free for any inputs anyway).
     let spacing = i64::from(half);
-    let curvature = before
-        .saturating_sub((value as i64).saturating_mul(2))
-        .saturating_add(after);
-    let offset = if curvature < 0 {
-        (before - after)
-            .saturating_mul(spacing)
-            .checked_div(curvature.saturating_mul(2))
-            .unwrap_or(0)
-            .max(-spacing)
-            .min(spacing)
-    } else {
-        0
-    };
+    let offset = parabola_vertex(before, value as i64, after, spacing, spacing);
     let refined = (i64::from(s) + offset)
         .max(i64::from(min))
         .min(i64::from(max)) as u32;
     // The caller's last shifts must belong to the returned scale.
     score(refined, Window::Near);
     refined
+}
+
+/// A reference column that locates the pose: its profile, the column `m` of
+/// image 2 it lands on, that column's normal and its relative strength.
+pub(crate) struct PoseColumn<'a, const RHO: usize> {
+    pub(crate) counts: &'a [u8; RHO],
+    pub(crate) m: usize,
+    pub(crate) normal_q15: (i32, i32),
+    pub(crate) relative_q16: u64,
+}
+
+impl<const RHO: usize> PoseColumn<'_, RHO> {
+    /// The column's shift for the translation fit, weighted by the match
+    /// score times the relative strength (both Q16).
+    pub(crate) fn shift(&self, m: ProfileMatch) -> ColumnShift {
+        ColumnShift {
+            normal_q15: self.normal_q15,
+            best: self.weighted(m.best),
+            runners_up: m.runners_up.map(|r| self.weighted(r)),
+        }
+    }
+
+    /// Match score (Q16) times relative strength, Q16.
+    fn weighted(&self, shift: Shift) -> Shift {
+        Shift {
+            shift_q16: shift.shift_q16,
+            score_q16: ((u64::from(shift.score_q16) * self.relative_q16) >> 16) as u32,
+        }
+    }
+}
+
+/// What the scale search needs besides the columns.
+pub(crate) struct PoseSearch {
+    pub(crate) range: ScaleRange,
+    pub(crate) mirrored: bool,
+    pub(crate) max_shift: usize,
+}
+
+/// Searches the scale (Q16) over `search.range`. Each candidate `s` re-votes
+/// the pose columns of `grid` at `ρ / s` and matches them; the translation
+/// fitted to their best shifts predicts a shift per column, and the score of
+/// `s` is the columns' match at those predicted shifts, weighted by relative
+/// strength. A column holding a single line matches at every scale (the
+/// stretch of one peak looks like a shift); only at the right scale do three
+/// or more columns agree on one translation. Returns the column shifts at
+/// the chosen scale (they measure `n·t / s`) and the scale. `column` is
+/// scratch.
+///
+/// The coarse evaluations search the whole shift window: a window around
+/// the shifts found at `s = 1` was measured to lose corridors (at the wrong
+/// scale the two walls of a column cannot both align, and the `s = 1` match
+/// may lock one wall onto the other, a jump of their separation; 10 % of
+/// 256² corridors).
+///
+/// Not inlined: its locals stay off the stack of estimates without the
+/// scale search.
+#[inline(never)]
+pub(crate) fn search_scale<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const HALF: usize,
+    const RHO: usize,
+>(
+    grid: &Grid<W, H, RW>,
+    columns: &[PoseColumn<'_, RHO>],
+    search: PoseSearch,
+    column: &mut Column<RHO>,
+) -> (Vec<ColumnShift, PROFILE_COLUMNS>, u32) {
+    // Between the best coarse scale and the final one the shift `n·t / s`
+    // moves by at most a coarse step (≤ 3 %) of the largest shift.
+    let radius = 2 + search.max_shift / 16;
+    let mut centres = [0i32; PROFILE_COLUMNS];
+    let mut best_full = 0u64;
+    let mut shifts: Vec<ColumnShift, PROFILE_COLUMNS> = Vec::new();
+    let scale_q16 = self::search(search.range, |s_q16, window| {
+        let inv_scale_q16 =
+            ((1u64 << 32) / u64::from(s_q16.max(1))).min(u64::from(u32::MAX)) as u32;
+        shifts.clear();
+        let mut curves = [MatchCurve::default(); PROFILE_COLUMNS];
+        for ((pose, centre), curve) in columns.iter().zip(centres).zip(curves.iter_mut()) {
+            vote_profile_column::<W, H, RW, N, HALF, RHO>(grid, pose.m, inv_scale_q16, column);
+            let (centre, radius) = match window {
+                Window::Full => (0, search.max_shift),
+                Window::Near => (centre, radius),
+            };
+            let (m, c) = match_curve(pose.counts, column, centre, radius, search.mirrored);
+            *curve = c;
+            let _ = shifts.push(pose.shift(m));
+        }
+        // Scored on the best shifts alone; the pose itself, fitted to the
+        // shifts of the chosen scale, weighs the runners-up too.
+        let total = fit_best_shifts(&shifts).map_or(0, |t| {
+            columns
+                .iter()
+                .zip(curves)
+                .map(|(pose, curve)| {
+                    let predicted = t.column_shift_q16(pose.normal_q15);
+                    (u64::from(curve.score_at(predicted)) * pose.relative_q16) >> 16
+                })
+                .sum()
+        });
+        if window == Window::Full && total > best_full {
+            best_full = total;
+            for (centre, shift) in centres.iter_mut().zip(&shifts) {
+                *centre = (shift.best.shift_q16 + (1 << 15)) >> 16;
+            }
+        }
+        total
+    });
+    (shifts, scale_q16)
 }
 
 #[cfg(test)]

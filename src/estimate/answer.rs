@@ -1,0 +1,277 @@
+//! What an estimate answers: the rotation, the [`Status`] (how far to trust
+//! it), the [`Candidate`]s, the [`Thresholds`] of the status decision and
+//! the confidences; and the optional [`Prior`] that picks among candidates.
+
+use crate::angle::Angle;
+use crate::direction::{HalfTurn, HalfTurnTest};
+use crate::math::insert_sorted;
+use crate::pose::Pose;
+use crate::Score;
+use fixed::types::I16F16;
+use heapless::Vec;
+
+/// How far to trust the answer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Status {
+    /// One clear answer.
+    Confident,
+    /// α vs α + π cannot be told apart (corridors, centrally symmetric
+    /// rooms): both are in the candidates.
+    AmbiguousDirection,
+    /// A rival correlation peak nearly as strong as the best (e.g. a square,
+    /// Manhattan room: rival near 90°): see the candidates.
+    AmbiguousAxis,
+    /// The best pose explains too little of the second view (verification
+    /// on): less than [`Thresholds::min_overlap`] of its sampled cells lie
+    /// within one cell of the reference. The views may not overlap at all.
+    LowOverlap,
+    /// Too few occupied cells or a featureless signature: no angle.
+    NoStructure,
+}
+
+/// A possible rotation and its scores.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Candidate {
+    /// Rotation α of the scene (counter-clockwise, DESIGN.md §2).
+    pub alpha: Angle,
+    /// Correlation × direction share, in [0, 1].
+    pub score: Score,
+    /// With the verification by alignment: how well the best translation for
+    /// this rotation lays the second view onto the reference, in [0, 1] (each
+    /// sampled cell scores 1 on an occupied reference cell, ½ next to one);
+    /// candidates are then sorted by it. `None` without verification
+    /// (candidates sorted by `score`).
+    pub alignment: Option<Score>,
+    /// With verification: the translation `t` (pixels, `p₂ = s·R(α)·p₁ + t`)
+    /// that aligns this candidate best: whole cells for the others, refined
+    /// for the chosen one (where [`Estimate::translation`] also holds it).
+    /// `None` without verification.
+    pub translation: Option<(I16F16, I16F16)>,
+}
+
+/// Most candidates an [`Estimate`] carries.
+pub const MAX_CANDIDATES: usize = 4;
+
+/// An optional prior on α, e.g. from a gyro or odometry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Prior {
+    /// Expected α (scene rotation; for a robot that turned left by `dθ`,
+    /// α = −dθ).
+    pub alpha: Angle,
+    /// One standard deviation; candidates farther than 3σ are not picked.
+    pub sigma: Angle,
+}
+
+/// Thresholds of the status decision (defaults from DESIGN.md §3, checked by
+/// the accuracy evaluation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Thresholds {
+    /// [`Status::AmbiguousAxis`] when the rival peak's correlation is at least
+    /// this fraction of the best one's. Default 0.9.
+    pub rival_ratio: Score,
+    /// [`Status::AmbiguousDirection`] when [`HalfTurnTest::margin`] is below
+    /// this. Default 0.10 (on the real scan pairs 0.05 left 2–7 % of the
+    /// unflagged answers wrong, 0.10 leaves 0.3–1.9 %).
+    pub direction_margin: Score,
+    /// [`Status::NoStructure`] when either grid has fewer occupied cells.
+    /// Default 8.
+    pub min_occupied: u32,
+    /// Largest translation searched by the profile test and the
+    /// verification, as a fraction of the ρ range. Default ¼ (±64 px at 128²).
+    pub max_shift_fraction: Score,
+    /// With verification: ambiguous unless the best candidate's alignment is
+    /// at least this multiple of the best one at least 5° away. Default 1.15
+    /// (chosen on the real scan pairs of `../shared/data`, README).
+    pub alignment_ratio: Score,
+    /// With verification: [`Status::LowOverlap`] when the best pose puts less
+    /// than this share of the second view within one cell of the reference.
+    /// Default 0.30 (chosen on the real scan pairs, README).
+    pub min_overlap: Score,
+}
+
+impl Thresholds {
+    /// The defaults, usable in `const` context.
+    pub const DEFAULT: Thresholds = Thresholds {
+        rival_ratio: Score::from_bits(58_982),     // 0.9
+        direction_margin: Score::from_bits(6_554), // 0.10
+        min_occupied: 8,
+        max_shift_fraction: Score::from_bits(16_384), // 0.25
+        alignment_ratio: Score::from_bits(75_366),    // 1.15
+        min_overlap: Score::from_bits(19_661),        // 0.30
+    };
+}
+
+impl Default for Thresholds {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// The result of one estimate.
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Estimate {
+    /// Rotation of the scene from the reference to the new image,
+    /// counter-clockwise: a point `p` of image 1 appears in image 2 at
+    /// `R(α)·p + t`. Meaningless when `status` is [`Status::NoStructure`].
+    pub alpha: Angle,
+    /// How far to trust `alpha`.
+    pub status: Status,
+    /// A summary in [0, 1]: the correlation of the winner, scaled down as the
+    /// rival peak or the direction margin approach their thresholds.
+    pub confidence: Score,
+    /// Pearson correlation of the winning shift (modulo π), in [−1, 1].
+    pub correlation: Score,
+    /// Pearson correlation of the best rival peak at least 5° away (0 if none).
+    pub rival: Score,
+    /// The α vs α + π test of the winning peak.
+    pub half_turn: HalfTurnTest,
+    /// Up to [`MAX_CANDIDATES`] rotations, strongest first; `alpha` is one of
+    /// them (the first, unless a prior picked another).
+    pub candidates: Vec<Candidate, MAX_CANDIDATES>,
+    /// With verification: the share of the second view's sampled cells that
+    /// the chosen pose puts within one cell of the reference, in [0, 1];
+    /// 0 without verification.
+    pub overlap: Score,
+    /// The rest of the pose for `alpha`: translation `t` in pixels, scale
+    /// (1 unless [`Estimator::with_scale_search`](crate::Estimator::with_scale_search)), residual and the
+    /// unobservable direction, if any. Improved mode only; `None` when the
+    /// rotation is not resolved or a prior picked another candidate than the
+    /// one the translation was fitted for.
+    pub translation: Option<Pose>,
+}
+
+impl Estimate {
+    pub(crate) fn no_structure() -> Self {
+        Self {
+            alpha: Angle::ZERO,
+            status: Status::NoStructure,
+            confidence: Score::ZERO,
+            correlation: Score::ZERO,
+            rival: Score::ZERO,
+            half_turn: HalfTurnTest {
+                chosen: HalfTurn::Direct,
+                direct: Score::ZERO,
+                flipped: Score::ZERO,
+            },
+            candidates: Vec::new(),
+            overlap: Score::ZERO,
+            translation: None,
+        }
+    }
+}
+
+/// Adds α and, when the direction test is close, α + π, scored by correlation
+/// × direction share.
+pub(crate) fn push_pair(
+    candidates: &mut Vec<Candidate, MAX_CANDIDATES>,
+    alpha: Angle,
+    correlation: Score,
+    test: &HalfTurnTest,
+) {
+    let (d, f) = (test.direct.max(Score::ZERO), test.flipped.max(Score::ZERO));
+    let total = d + f;
+    let share = |s: Score| {
+        if total == Score::ZERO {
+            Score::from_num(0.5)
+        } else {
+            s / total
+        }
+    };
+    let (first, second, first_share, second_share) = match test.chosen {
+        HalfTurn::Direct => (alpha, alpha + Angle::HALF_TURN, share(d), share(f)),
+        HalfTurn::Flipped => (alpha + Angle::HALF_TURN, alpha, share(f), share(d)),
+    };
+    insert_sorted(
+        candidates,
+        Candidate {
+            alpha: first,
+            score: correlation * first_share,
+            alignment: None,
+            translation: None,
+        },
+        stronger,
+    );
+    insert_sorted(
+        candidates,
+        Candidate {
+            alpha: second,
+            score: correlation * second_share,
+            alignment: None,
+            translation: None,
+        },
+        stronger,
+    );
+}
+
+/// Candidates sorted by score, strongest first (ties keep their order).
+fn stronger(a: &Candidate, b: &Candidate) -> bool {
+    b.score < a.score
+}
+
+/// Confidence in [0, 1]: the best correlation, scaled linearly to 0 as the
+/// rival ratio rises from `rival_ratio − 0.1` to `rival_ratio`, and as the
+/// direction margin falls from twice its threshold to the threshold.
+pub(crate) fn confidence(best: Score, rival: Score, margin: Score, t: &Thresholds) -> Score {
+    let one = Score::ONE;
+    let ratio = if best > Score::ZERO {
+        rival.saturating_div(best)
+    } else {
+        one
+    };
+    let axis = t
+        .rival_ratio
+        .saturating_sub(ratio)
+        .saturating_mul_int(10)
+        .clamp(Score::ZERO, one);
+    let direction = if t.direction_margin > Score::ZERO {
+        margin
+            .saturating_sub(t.direction_margin)
+            .saturating_div(t.direction_margin)
+            .clamp(Score::ZERO, one)
+    } else {
+        one
+    };
+    best.clamp(Score::ZERO, one) * axis * direction
+}
+
+/// The candidate nearest the prior within 3σ, and whether it is the only one
+/// within 3σ.
+pub(crate) fn pick_with_prior(candidates: &[Candidate], prior: Prior) -> Option<(Angle, bool)> {
+    let gate = Angle(prior.sigma.0.saturating_mul(3));
+    let inside = || {
+        candidates
+            .iter()
+            .filter(move |c| c.alpha.distance(prior.alpha) <= gate)
+    };
+    let nearest = inside().min_by_key(|c| c.alpha.distance(prior.alpha))?;
+    Some((nearest.alpha, inside().count() == 1))
+}
+
+/// Confidence with verification, in [0, 1]: the overlap, scaled linearly to
+/// 0 as the winner's lead over the rival (`1 − rival/best`) falls from twice
+/// the threshold's lead (`1 − 1/alignment_ratio`) to it, and as the overlap
+/// falls from twice `min_overlap` to it.
+pub(crate) fn verified_confidence(overlap: Score, lead: Score, t: &Thresholds) -> Score {
+    let one = Score::ONE;
+    let ramp = |value: Score, threshold: Score| {
+        if threshold <= Score::ZERO {
+            one
+        } else {
+            value
+                .saturating_sub(threshold)
+                .saturating_div(threshold)
+                .clamp(Score::ZERO, one)
+        }
+    };
+    let needed = if t.alignment_ratio > one {
+        one - one.saturating_div(t.alignment_ratio)
+    } else {
+        Score::ZERO
+    };
+    overlap.clamp(Score::ZERO, one) * ramp(lead, needed) * ramp(overlap, t.min_overlap)
+}

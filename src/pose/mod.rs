@@ -1,0 +1,17 @@
+//! The rest of the pose: translation and scale from the profile shifts, and
+//! the verification's geometry (the OR-pooled pyramid, the branch-and-bound
+//! search over translations, and ICP).
+//!
+//! * [`translation`]: the least-squares translation from column shifts;
+//! * [`scale`]: the bounded 1-D scale search;
+//! * [`pyramid`]: the OR-pooled reference pyramid;
+//! * [`search`]: the alignment score and the exact best translation;
+//! * [`icp`]: the sub-cell, sub-step refinement.
+
+pub(crate) mod icp;
+pub(crate) mod pyramid;
+pub(crate) mod scale;
+pub(crate) mod search;
+pub(crate) mod translation;
+
+pub use translation::{fit_translation, ColumnShift, Pose, MAX_FIT_COLUMNS};

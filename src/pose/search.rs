@@ -1,0 +1,382 @@
+//! Verification by alignment: how well a full pose (rotation and translation)
+//! lays the second view's occupied cells onto the reference grid.
+//!
+//! A pose maps a point `p₂` of image 2 back into the reference frame as
+//! `p₁ = R(−α)·p₂ + u` (then `t = −R(α)·u` in `p₂ = R(α)·p₁ + t`). Up to
+//! [`ALIGN_POINTS`] occupied cells of image 2, spread evenly in raster order,
+//! are scored: 2 when the reference cell under the point is occupied, 1 when
+//! only one of its 8 neighbours is, 0 otherwise. The *alignment* of a pose is
+//! the sum over `2 × points` (in [0, 1]); its *overlap* is the share of points
+//! scoring at least 1 (within one cell of the reference).
+//!
+//! The best integer translation of a rotation is found by branch and bound
+//! over an OR-pooled pyramid of the reference grid (level `k` cell = OR of a
+//! `2ᵏ × 2ᵏ` block), as in correlative scan matching: a block of `2ᵏ × 2ᵏ`
+//! translations is bounded by counting the points whose block of possible
+//! positions, widened by one cell, touches an occupied pyramid cell. The
+//! search is exact over its window (the best integer translation, ties to the
+//! first found). [`refine`](super::icp::refine) then moves the pose below one cell and one θ step
+//! by point-to-point ICP on the occupied cells, in fixed point.
+
+use crate::angle::Angle;
+use crate::config::{align_points, ALIGN_POINTS};
+use crate::grid::Grid;
+use crate::math::sort_descending;
+use crate::pose::pyramid::{any_in_columns, bits, Pyramid};
+use crate::trig::sin_cos_q15;
+
+/// A point of image 2 turned into the reference frame, in reference cells
+/// `(col, row)`.
+pub(crate) type Cell = (i16, i16);
+
+/// A pose found by the search: rotation and the translation `u` in
+/// reference cells (`col`, `row` directions), with its alignment.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Placement {
+    /// Rotation α of the scene.
+    pub(crate) alpha: Angle,
+    /// Translation in reference cells, `(Δcol, Δrow)`.
+    pub(crate) shift: (i32, i32),
+    /// Σ point scores (0, 1 or 2 each).
+    pub(crate) score: u32,
+}
+
+/// Scores poses of image 2's occupied cells against a reference grid.
+pub(crate) struct Aligner<'a, const W: usize, const H: usize, const RW: usize, const PW: usize> {
+    reference: &'a Grid<W, H, RW>,
+    pyramid: &'a Pyramid<W, H, PW>,
+    view: &'a Grid<W, H, RW>,
+    /// Centroid of the sampled view points, centred coordinates × 2.
+    centroid_q1: (i32, i32),
+    /// `1/s` (Q16): view points are shrunk by it before the pose.
+    inv_scale_q16: i64,
+    /// View points turned by the current rotation, reference cells.
+    cells: [Cell; ALIGN_POINTS],
+    count: usize,
+}
+
+impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
+    Aligner<'a, W, H, RW, PW>
+{
+    /// An aligner of `view` against `reference`, whose `pyramid` is built;
+    /// the view is at scale `s` = 2¹⁶ / `inv_scale_q16` of the reference.
+    pub(crate) fn new(
+        reference: &'a Grid<W, H, RW>,
+        pyramid: &'a Pyramid<W, H, PW>,
+        view: &'a Grid<W, H, RW>,
+        inv_scale_q16: u32,
+    ) -> Self {
+        let (mut n, mut sx, mut sy) = (0i64, 0i64, 0i64);
+        for (col, row) in sampled_cells(view, align_points(W, H)) {
+            let (x, y) = centred_q1::<W, H>(col, row);
+            n += 1;
+            sx += i64::from(x);
+            sy += i64::from(y);
+        }
+        let n = n.max(1);
+        Self {
+            reference,
+            pyramid,
+            view,
+            centroid_q1: ((sx / n) as i32, (sy / n) as i32),
+            inv_scale_q16: i64::from(inv_scale_q16),
+            cells: [(0, 0); ALIGN_POINTS],
+            count: 0,
+        }
+    }
+
+    /// The shift for rotation `alpha` that keeps the view's centroid where
+    /// `from` put it: `u' = u + (R(−α₀) − R(−α))·p̄`, reference cells.
+    pub(crate) fn predict<const N: usize>(&self, from: &Placement, alpha: Angle) -> (i32, i32) {
+        let at = |a: Angle| {
+            scaled(
+                rotate_inverse_q16(sin_cos_q15::<N>(a), self.centroid_q1),
+                self.inv_scale_q16,
+            )
+        };
+        let (x0, y0) = at(from.alpha);
+        let (x1, y1) = at(alpha);
+        // Q16 centred (y up) → cells (Δcol, Δrow = −Δy).
+        let dc = ((x0 - x1) + (1 << 15)) >> 16;
+        let dr = ((y1 - y0) + (1 << 15)) >> 16;
+        (from.shift.0 + dc as i32, from.shift.1 + dr as i32)
+    }
+
+    /// Number of points scored (`min(occupied, align_points(W, H))`).
+    pub(crate) fn points(&self) -> u32 {
+        self.count as u32
+    }
+
+    /// Turns the sampled view points by `−alpha` into the reference cells,
+    /// plus `u_q8` (centred reference coordinates, Q8 cells, y up).
+    pub(crate) fn rotate<const N: usize>(&mut self, alpha: Angle, u_q8: (i64, i64)) {
+        let (cos, sin) = sin_cos_q15::<N>(alpha);
+        let mut count = 0;
+        for (col, row) in sampled_cells(self.view, align_points(W, H)) {
+            let (x, y) = scaled(
+                rotate_inverse_q16((cos, sin), centred_q1::<W, H>(col, row)),
+                self.inv_scale_q16,
+            );
+            let cell = to_cell_q16::<W, H>(x + (u_q8.0 << 8), y + (u_q8.1 << 8));
+            if let Some(slot) = self.cells.get_mut(count) {
+                *slot = (clamp_i16(cell.0), clamp_i16(cell.1));
+                count += 1;
+            }
+        }
+        self.count = count;
+    }
+
+    /// Score of the rotated points shifted by `(dc, dr)` cells.
+    pub(crate) fn score(&self, shift: (i32, i32)) -> u32 {
+        self.score_above(shift, 0)
+    }
+
+    /// [`Self::score`] if it exceeds `floor`, else 0 (stops as soon as the
+    /// points left cannot lift it above `floor`). With `floor` 0 it is the
+    /// score itself.
+    fn score_above(&self, shift: (i32, i32), floor: u32) -> u32 {
+        let mut reachable = 2 * self.points();
+        let mut total = 0;
+        for &(c, r) in self.turned() {
+            let s = point_score(
+                self.reference,
+                i32::from(c) + shift.0,
+                i32::from(r) + shift.1,
+            );
+            total += s;
+            reachable -= 2 - s;
+            if floor > 0 && reachable <= floor {
+                return 0;
+            }
+        }
+        total
+    }
+
+    /// Points within one cell of the reference when shifted by `(dc, dr)`.
+    pub(crate) fn near(&self, shift: (i32, i32)) -> u32 {
+        self.turned()
+            .iter()
+            .filter(|&&(c, r)| {
+                point_score(
+                    self.reference,
+                    i32::from(c) + shift.0,
+                    i32::from(r) + shift.1,
+                ) > 0
+            })
+            .count() as u32
+    }
+
+    fn turned(&self) -> &[Cell] {
+        self.cells.get(..self.count).unwrap_or(&[])
+    }
+
+    /// Upper bound of [`Self::score`] over the block of shifts
+    /// `[c0, c0 + 2ᵏ) × [r0, r0 + 2ᵏ)`, level `k ≥ 1`: twice the number of
+    /// points with an occupied reference cell within their reach (the block
+    /// widened by one cell). Up to level [`EXACT_LEVELS`] the reach is tested
+    /// exactly on the grid's rows (`2ᵏ + 2` rows a point); above, on the
+    /// pyramid (2–3 cells of `2ᵏ` per axis: looser, but few blocks are that
+    /// large).
+    ///
+    /// Returns 0 as soon as the bound cannot exceed `floor`.
+    fn bound(&self, k: usize, c0: i32, r0: i32, floor: u32) -> u32 {
+        let side = 1i32 << k;
+        let rows = self.reference.words();
+        // 2·hits > floor ⟺ hits ≥ floor/2 + 1: at most this many may miss.
+        let Some(allowed) = self.points().checked_sub(floor / 2 + 1) else {
+            return 0;
+        };
+        let mut misses = 0;
+        let mut hits = 0;
+        for &(c, r) in self.turned() {
+            let reached = {
+                let (a, b) = (i32::from(c) + c0 - 1, i32::from(r) + r0 - 1);
+                if k <= EXACT_LEVELS {
+                    let reach = rows
+                        .get(b.max(0) as usize..(b + side + 2).clamp(0, H as i32) as usize)
+                        .unwrap_or(&[]);
+                    any_in_columns(reach, a, (side + 2) as u32)
+                } else {
+                    let (lo_c, hi_c) = (a >> k, (a + side + 1) >> k);
+                    let (lo_r, hi_r) = (b >> k, (b + side + 1) >> k);
+                    let n = (hi_c - lo_c + 1) as u32;
+                    (lo_r..=hi_r).any(|row| bits(self.pyramid.row(k, row), lo_c, n) != 0)
+                }
+            };
+            if reached {
+                hits += 1;
+            } else {
+                misses += 1;
+                if misses > allowed {
+                    return 0;
+                }
+            }
+        }
+        2 * hits
+    }
+
+    /// The best integer shift within `[centre − radius, centre + radius]` in
+    /// both axes whose score beats `floor`, by branch and bound; `None` if
+    /// none beats it. Ties keep the first found (blocks with the higher
+    /// bound first).
+    pub(crate) fn search(
+        &self,
+        centre: (i32, i32),
+        radius: i32,
+        floor: u32,
+    ) -> Option<((i32, i32), u32)> {
+        // At most 8 × 8 top blocks of the largest pyramid level.
+        let radius = radius.clamp(0, (7 << Pyramid::<W, H, PW>::LEVELS) / 2);
+        let span = 2 * radius + 1;
+        // Top level: blocks at most a quarter of the window, within the pyramid.
+        let mut top = 0usize;
+        while top < Pyramid::<W, H, PW>::LEVELS && (4i32 << top) < span {
+            top += 1;
+        }
+        let side = 1i32 << top;
+        let blocks = (span + side - 1) / side;
+        let origin = (centre.0 - radius, centre.1 - radius);
+        let mut tops: heapless::Vec<(u32, i32, i32), TOP_BLOCKS> = heapless::Vec::new();
+        for i in 0..blocks {
+            for j in 0..blocks {
+                let (c0, r0) = (origin.0 + j * side, origin.1 + i * side);
+                let b = if top == 0 {
+                    self.score_above((c0, r0), floor)
+                } else {
+                    self.bound(top, c0, r0, floor)
+                };
+                if b > floor {
+                    let _ = tops.push((b, c0, r0));
+                }
+            }
+        }
+        let mut best: Option<((i32, i32), u32)> = None;
+        let mut floor = floor;
+        let last = (origin.0 + span - 1, origin.1 + span - 1);
+        // Highest bound first.
+        sort_descending(&mut tops, |t| t.0);
+        let mut stack: heapless::Vec<(usize, i32, i32, u32), STACK> = heapless::Vec::new();
+        for &(b, c0, r0) in &tops {
+            if b <= floor {
+                break;
+            }
+            let _ = stack.push((top, c0, r0, b));
+            while let Some((k, c0, r0, b)) = stack.pop() {
+                if b <= floor || c0 > last.0 || r0 > last.1 {
+                    continue;
+                }
+                if k == 0 {
+                    // At level 0 the bound is the score.
+                    floor = b;
+                    best = Some(((c0, r0), b));
+                    continue;
+                }
+                let half = 1i32 << (k - 1);
+                let mut children = [(0u32, 0i32, 0i32); 4];
+                for (n, child) in children.iter_mut().enumerate() {
+                    let (c, r) = (c0 + half * (n as i32 & 1), r0 + half * (n as i32 >> 1));
+                    let cb = if c > last.0 || r > last.1 {
+                        0
+                    } else if k == 1 {
+                        self.score_above((c, r), floor)
+                    } else {
+                        self.bound(k - 1, c, r, floor)
+                    };
+                    *child = (cb, c, r);
+                }
+                // Push the lowest first so the highest is explored first.
+                children.sort_unstable_by_key(|c| c.0);
+                for (cb, c, r) in children {
+                    if cb > floor {
+                        let _ = stack.push((k - 1, c, r, cb));
+                    }
+                }
+            }
+        }
+        best
+    }
+}
+
+/// Levels whose bound is tested exactly on the grid rows (`2ᵏ + 2 ≤ 10`
+/// rows and bits a point).
+const EXACT_LEVELS: usize = 3;
+
+/// Most top-level blocks of one search (window ≤ 4·2ᴸ + … per axis).
+const TOP_BLOCKS: usize = 64;
+/// Depth-first stack: 4 children per level, 12 levels at most (W ≤ 2048).
+const STACK: usize = 48;
+
+/// Score of reference cell `(c, r)`: 2 occupied, 1 a neighbour occupied, else 0.
+fn point_score<const W: usize, const H: usize, const RW: usize>(
+    grid: &Grid<W, H, RW>,
+    c: i32,
+    r: i32,
+) -> u32 {
+    let rows = grid.words();
+    let row = |r: i32| -> &[u32] {
+        if r < 0 {
+            &[]
+        } else {
+            rows.get(r as usize).map_or(&[], |w| w.as_slice())
+        }
+    };
+    let middle = bits(row(r), c - 1, 3);
+    if middle & 2 != 0 {
+        2
+    } else if middle != 0 || bits(row(r - 1), c - 1, 3) != 0 || bits(row(r + 1), c - 1, 3) != 0 {
+        1
+    } else {
+        0
+    }
+}
+
+/// Up to `max` occupied cells `(col, row)` of `grid`, spread evenly in
+/// raster order.
+pub(crate) fn sampled_cells<const W: usize, const H: usize, const RW: usize>(
+    grid: &Grid<W, H, RW>,
+    max: usize,
+) -> impl Iterator<Item = (usize, usize)> + '_ {
+    let occupied = grid.occupied() as usize;
+    let keep = max.min(occupied);
+    grid.occupied_cells()
+        .enumerate()
+        .filter(move |&(i, _)| {
+            // Cell i is kept when ⌊(i + 1)·keep / occupied⌋ steps up.
+            occupied > 0 && ((i + 1) * keep / occupied) > (i * keep / occupied)
+        })
+        .map(|(_, cell)| cell)
+}
+
+/// Centred coordinates of cell `(col, row)` times 2 (exact integers):
+/// `2x = 2·col − (W − 1)`, `2y = (H − 1) − 2·row`.
+pub(crate) fn centred_q1<const W: usize, const H: usize>(col: usize, row: usize) -> (i32, i32) {
+    (
+        2 * col as i32 - (W as i32 - 1),
+        (H as i32 - 1) - 2 * row as i32,
+    )
+}
+
+/// `p · inv_scale` for `p` in Q16 and `inv_scale` in Q16.
+pub(crate) fn scaled((x, y): (i64, i64), inv_scale_q16: i64) -> (i64, i64) {
+    if inv_scale_q16 == 1 << 16 {
+        return (x, y);
+    }
+    ((x * inv_scale_q16) >> 16, (y * inv_scale_q16) >> 16)
+}
+
+/// `R(−α)·p` for `p` in Q1 and `(cos α, sin α)` in Q15: Q16.
+pub(crate) fn rotate_inverse_q16((cos, sin): (i32, i32), (x, y): (i32, i32)) -> (i64, i64) {
+    let (x, y, cos, sin) = (i64::from(x), i64::from(y), i64::from(cos), i64::from(sin));
+    (cos * x + sin * y, cos * y - sin * x)
+}
+
+/// The reference cell nearest the centred point `(x, y)` (Q16).
+fn to_cell_q16<const W: usize, const H: usize>(x: i64, y: i64) -> (i64, i64) {
+    let col = x + ((W as i64 - 1) << 15);
+    let row = ((H as i64 - 1) << 15) - y;
+    ((col + (1 << 15)) >> 16, (row + (1 << 15)) >> 16)
+}
+
+fn clamp_i16(v: i64) -> i16 {
+    v.clamp(i64::from(i16::MIN), i64::from(i16::MAX)) as i16
+}
