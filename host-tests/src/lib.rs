@@ -9,6 +9,8 @@
 #[cfg(not(target_os = "none"))]
 pub mod eval;
 #[cfg(not(target_os = "none"))]
+pub mod fuzz;
+#[cfg(not(target_os = "none"))]
 pub mod pose_reference;
 #[cfg(not(target_os = "none"))]
 pub mod reference;
