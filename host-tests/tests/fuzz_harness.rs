@@ -38,9 +38,11 @@
 //! Every case must return (no panic, in the test profile's overflow-checked
 //! arithmetic) with a result in its documented range. Case counts are printed
 //! (`--nocapture`); `FUZZ_SCALE` (default 1) multiplies them, e.g.
-//! `FUZZ_SCALE=11 cargo test -p host-tests --test fuzz_harness -- --nocapture`
-//! for the long run (1 014 805 cases; `--release` would drop the overflow
-//! checks). The default run, 92 255 cases, takes about 70 s on 2 cores.
+//! `FUZZ_SCALE=11 cargo test -p host-tests --test fuzz_harness -p
+//! hough-heading-cli --test fuzz_input -- --nocapture` for the long run
+//! (1 014 805 cases with targets 5 and 6; `--release` would drop the
+//! overflow checks). The default run, 92 255 cases with targets 5 and 6
+//! (6 000), takes about 70 s on 2 cores.
 
 use host_tests::fuzz::{check, fuzz, wild_f32};
 use hough_heading::{
