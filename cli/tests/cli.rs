@@ -349,6 +349,30 @@ fn scans_input_errors_exit_with_status_2() {
     assert_eq!(o.status.code(), Some(2));
 }
 
+/// Output piped into a reader that stops after one line (`demo | head -1`):
+/// the tool ends (by SIGPIPE on Unix) without a panic message.
+#[test]
+fn a_closed_output_pipe_is_not_a_panic() {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_hough-heading"))
+        .arg("demo")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run hough-heading");
+    let mut first = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    // The reader is dropped here: the pipe is closed after one line.
+    assert!(!first.is_empty());
+    let out = child.wait_with_output().unwrap();
+    let err = stderr(&out);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_ne!(out.status.code(), Some(101), "{err}");
+}
+
 #[test]
 fn plot_writes_a_png_sheet() {
     let dir = scratch("plot");
