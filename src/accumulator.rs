@@ -70,8 +70,13 @@ pub fn vote_column<
     let mut y2 = H as i32 - 1;
     let row_start = vote_offset(RHO) - (W as i32 - 1) * c;
     for row in grid.words() {
-        let mut word_base = row_start + y2 * s;
-        for &word in row {
+        let row_base = row_start + y2 * s;
+        for (j, &word) in row.iter().enumerate() {
+            if word == 0 {
+                continue;
+            }
+            // As in `vote_column_pair`: positions only for occupied words.
+            let word_base = row_base + 32 * j as i32 * step;
             let mut bits = word;
             while bits != 0 {
                 let col = bits.trailing_zeros() as i32;
@@ -79,7 +84,6 @@ pub fn vote_column<
                 column[bin] = column[bin].wrapping_add(1);
                 bits &= bits - 1;
             }
-            word_base += 32 * step;
         }
         y2 -= 2;
     }
@@ -165,9 +169,13 @@ pub fn vote_column_split<
 
 /// Votes two adjacent columns, `k` into `first` and `k + 1` into `second`, in
 /// one pass over the grid: the bit extraction and the scan over the grid's
-/// words are shared, so a vote costs about 8 instructions on Cortex-M4
-/// instead of 10 (plus half the per-word overhead). Same result as two calls
-/// of [`vote_column`].
+/// words are shared. Same result as two calls of [`vote_column`].
+///
+/// An empty word costs a load and a branch: the Q16 positions of a word are
+/// computed from its row and index only when it holds a cell (instead of a
+/// running sum updated on every word). At 128², `N_THETA` = 360 the loop
+/// takes 12.2 instructions per vote on Cortex-M4F and 23.2 on Cortex-M0
+/// (`budgets/TABLE.md`, *vote loop*).
 pub fn vote_column_pair<
     const W: usize,
     const H: usize,
@@ -190,9 +198,16 @@ pub fn vote_column_pair<
     let start1 = vote_offset(RHO) - (W as i32 - 1) * c1;
     let start2 = vote_offset(RHO) - (W as i32 - 1) * c2;
     for row in grid.words() {
-        let mut base1 = start1 + y2 * s1;
-        let mut base2 = start2 + y2 * s2;
-        for &word in row {
+        let row1 = start1 + y2 * s1;
+        let row2 = start2 + y2 * s2;
+        for (j, &word) in row.iter().enumerate() {
+            if word == 0 {
+                continue;
+            }
+            // The same values as the running sums `row + 32·j·step`,
+            // computed only for words that hold a cell.
+            let base1 = row1 + 32 * j as i32 * step1;
+            let base2 = row2 + 32 * j as i32 * step2;
             let mut bits = word;
             while bits != 0 {
                 let col = bits.trailing_zeros() as i32;
@@ -202,8 +217,6 @@ pub fn vote_column_pair<
                 second[bin2] = second[bin2].wrapping_add(1);
                 bits &= bits - 1;
             }
-            base1 += 32 * step1;
-            base2 += 32 * step2;
         }
         y2 -= 2;
     }
