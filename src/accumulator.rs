@@ -335,4 +335,20 @@ mod tests {
         mirror(&mut c);
         assert_eq!(c, [0, 0, 0, 0, 4, 3, 0, 1]);
     }
+
+    /// `k + 1` never overflows: the pair at `usize::MAX` is the columns
+    /// `usize::MAX mod N` and the next one, as two single votes give them.
+    #[test]
+    fn vote_column_pair_at_the_largest_index() {
+        let mut g = Grid::<8, 4, 1>::new();
+        g.set_cells([(0, 0), (3, 1), (7, 3), (5, 2)]).unwrap();
+        for k in [usize::MAX, usize::MAX - 1, 15, 0] {
+            let (mut first, mut second) = ([0u16; 16], [0u16; 16]);
+            vote_column_pair::<8, 4, 1, 16, 16>(&g, k, &mut first, &mut second);
+            let (mut a, mut b) = ([0u16; 16], [0u16; 16]);
+            vote_column::<8, 4, 1, 16, 16>(&g, k % 16, &mut a);
+            vote_column::<8, 4, 1, 16, 16>(&g, k % 16 + 1, &mut b);
+            assert_eq!((first, second), (a, b), "{k}");
+        }
+    }
 }

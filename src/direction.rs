@@ -243,4 +243,24 @@ mod tests {
         };
         assert!((p.margin().to_num::<f32>() - 0.3).abs() < 1e-3);
     }
+
+    /// Total on any scores (the fields are public): the extremes of
+    /// `Score` saturate instead of overflowing in `−hi` or `abs`.
+    #[test]
+    fn margin_is_total() {
+        for (direct, flipped, expected) in [
+            (Score::MIN, Score::MIN, Score::ZERO),
+            (Score::MIN, Score::MAX, Score::ONE),
+            (Score::MAX, Score::MIN, Score::ONE),
+            (Score::MAX, Score::MAX, Score::ZERO),
+            (Score::ZERO, Score::ZERO, Score::ZERO),
+        ] {
+            let t = HalfTurnTest {
+                chosen: HalfTurn::Direct,
+                direct,
+                flipped,
+            };
+            assert_eq!(t.margin(), expected, "{direct} {flipped}");
+        }
+    }
 }

@@ -317,3 +317,148 @@ impl Reader<'_> {
         out
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{max_votes_per_bin, rho_bins};
+
+    const RHO: usize = rho_bins(32, 32);
+    type R = Reference<32, 32, 1, 32, RHO>;
+
+    /// An L of two walls and a stray cell: a reference with several profiles.
+    fn prepared(kind: PeakKind) -> R {
+        let mut g = Grid::<32, 32, 1>::new();
+        g.set_cells((4..28).map(|c| (c, 6))).unwrap();
+        g.set_cells((6..26).map(|r| (5, r))).unwrap();
+        g.set_cells([(20, 20), (25, 12)]).unwrap();
+        let mut columns = [[0u16; RHO]; 2];
+        R::prepare::<64>(&g, kind, &mut columns)
+    }
+
+    fn bytes_of(r: &R) -> [u8; R::BYTES] {
+        let mut out = [0u8; R::BYTES];
+        assert_eq!(r.to_bytes(&mut out), Ok(R::BYTES));
+        out
+    }
+
+    /// Recomputes the checksum after an edit, as `to_bytes` writes it.
+    fn resum(bytes: &mut [u8]) {
+        let end = bytes.len() - 4;
+        let sum = fnv1a(&bytes[..end]);
+        bytes[end..].copy_from_slice(&sum.to_le_bytes());
+    }
+
+    const PEAKS: usize = 20;
+    const ASYMMETRY: usize = PEAKS + 2 * 32;
+    const PROFILE: usize = ASYMMETRY + 2 * 32;
+    const GRID: usize = PROFILE + PROFILE_COLUMNS * (2 + RHO);
+
+    #[test]
+    fn round_trip_both_kinds() {
+        for kind in [PeakKind::SingleBin, PeakKind::TwoBin] {
+            let r = prepared(kind);
+            assert!(r.profiles().len() >= 2, "{kind:?}");
+            let bytes = bytes_of(&r);
+            assert_eq!(R::from_bytes(&bytes), Ok(r.clone()));
+            // Longer buffers are fine: only the first BYTES count.
+            let mut long = [0xA5u8; R::BYTES + 7];
+            long[..R::BYTES].copy_from_slice(&bytes);
+            assert_eq!(R::from_bytes(&long), Ok(r.clone()));
+            // Too short to write or to read.
+            let mut short = [0u8; R::BYTES - 1];
+            let needed = Error::BufferTooSmall { needed: R::BYTES };
+            assert_eq!(r.to_bytes(&mut short), Err(needed));
+            assert_eq!(R::from_bytes(&bytes[..R::BYTES - 1]), Err(needed));
+        }
+    }
+
+    #[test]
+    fn version_is_checked_before_anything_else() {
+        let mut bytes = bytes_of(&prepared(PeakKind::SingleBin));
+        assert_eq!(&bytes[..4], b"HHR3");
+        for version in [b'0', b'2', b'4', b'9'] {
+            bytes[3] = version;
+            let expected = Error::ReferenceVersion {
+                found: version - b'0',
+                expected: REFERENCE_FORMAT,
+            };
+            // Even a short buffer with a wrong checksum says "version".
+            assert_eq!(R::from_bytes(&bytes), Err(expected));
+            assert_eq!(R::from_bytes(&bytes[..4]), Err(expected));
+        }
+    }
+
+    /// Every field `from_bytes` checks, edited with the checksum recomputed:
+    /// each edit alone is refused.
+    #[test]
+    fn every_rejected_field() {
+        let single = bytes_of(&prepared(PeakKind::SingleBin));
+        let two = bytes_of(&prepared(PeakKind::TwoBin));
+        let r = prepared(PeakKind::SingleBin);
+        assert!(!r.profiles().is_empty());
+        let occupied = r.occupied() as u16;
+        let bound = max_votes_per_bin(32, 32) as u16;
+        type Edit = fn(&mut [u8], u16, u16);
+        let edits: [(&str, bool, Edit); 17] = [
+            ("magic", false, |b, _, _| b[0] = b'X'),
+            ("width", false, |b, _, _| b[4] = 33),
+            ("height", false, |b, _, _| b[6] = 31),
+            ("half", false, |b, _, _| b[8] = 16),
+            ("rho", false, |b, _, _| b[10] = 0),
+            ("kind", false, |b, _, _| b[12] = 2),
+            ("profile count", false, |b, _, _| b[13] = 5),
+            ("occupied", false, |b, _, _| b[16] ^= 1),
+            ("grid disagrees with the count", false, |b, _, _| b[GRID] ^= 1),
+            ("profile θ ≥ HALF", false, |b, _, _| {
+                b[PROFILE..PROFILE + 2].copy_from_slice(&32u16.to_le_bytes());
+            }),
+            ("S = i16::MIN", false, |b, _, _| {
+                b[ASYMMETRY + 6..ASYMMETRY + 8].copy_from_slice(&i16::MIN.to_le_bytes());
+            }),
+            ("S ≠ 0 in a two-bin reference", true, |b, _, _| {
+                b[ASYMMETRY + 6..ASYMMETRY + 8].copy_from_slice(&1i16.to_le_bytes());
+            }),
+            ("D above the cell count", false, |b, occupied, _| {
+                b[PEAKS + 4..PEAKS + 6].copy_from_slice(&(occupied + 1).to_le_bytes());
+            }),
+            ("D above the two-bin bound", true, |b, _, bound| {
+                b[PEAKS + 4..PEAKS + 6].copy_from_slice(&(2 * bound + 1).to_le_bytes());
+            }),
+            // The last slot becomes unused but keeps its bytes.
+            ("unused profile slot not zero", false, |b, _, _| b[13] -= 1),
+            ("profile θ at D = 0", false, |_, _, _| {}),
+            ("checksum", false, |b, _, _| b[R::BYTES - 1] ^= 1),
+        ];
+        for (name, two_bin, edit) in edits {
+            let mut bytes = if two_bin { two } else { single };
+            edit(&mut bytes, occupied, bound);
+            match name {
+                "profile θ at D = 0" => {
+                    let theta = usize::from(u16::from_le_bytes([bytes[PROFILE], bytes[PROFILE + 1]]));
+                    bytes[PEAKS + 2 * theta..PEAKS + 2 * theta + 2].fill(0);
+                }
+                _ => {}
+            }
+            if name != "checksum" {
+                resum(&mut bytes);
+            }
+            assert_eq!(R::from_bytes(&bytes), Err(Error::InvalidReference), "{name}");
+        }
+    }
+
+    /// Bounds `from_bytes` accepts: `|S| = i16::MAX` (what the saturation
+    /// writes) and `D` at the cell count.
+    #[test]
+    fn extreme_values_the_library_writes_are_accepted() {
+        let r = prepared(PeakKind::SingleBin);
+        let mut bytes = bytes_of(&r);
+        bytes[ASYMMETRY..ASYMMETRY + 2].copy_from_slice(&i16::MAX.to_le_bytes());
+        bytes[ASYMMETRY + 2..ASYMMETRY + 4].copy_from_slice(&(-i16::MAX).to_le_bytes());
+        bytes[PEAKS + 2..PEAKS + 4].copy_from_slice(&(r.occupied() as u16).to_le_bytes());
+        resum(&mut bytes);
+        let read = R::from_bytes(&bytes).unwrap();
+        assert_eq!(read.signature().asymmetry(32), -i16::MAX);
+        assert_eq!(read.signature().asymmetry(33), i16::MAX);
+    }
+}

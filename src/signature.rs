@@ -250,4 +250,19 @@ mod tests {
             assert_eq!(streamed, Signature::from_accumulator(&acc, kind));
         }
     }
+
+    /// `S(θ + π) = −S(θ)` is total: a stored `i16::MIN` (which
+    /// `Reference::from_bytes` refuses, but a `Signature` can hold) reads
+    /// back as `i16::MAX` on the other half, not as an overflow.
+    #[test]
+    fn asymmetry_of_the_other_half_saturates() {
+        let mut s = Signature::<4>::empty(PeakKind::SingleBin);
+        s.asymmetry = [i16::MIN, i16::MAX, -7, 0];
+        assert_eq!(s.asymmetry(0), i16::MIN);
+        assert_eq!(s.asymmetry(4), i16::MAX);
+        assert_eq!(s.asymmetry(5), -i16::MAX);
+        assert_eq!(s.asymmetry(6), 7);
+        assert_eq!(s.asymmetry(8), i16::MIN);
+        assert_eq!(s.asymmetry(usize::MAX), 0);
+    }
 }
