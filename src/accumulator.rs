@@ -167,7 +167,8 @@ pub fn vote_column_split<
 /// one pass over the grid: the bit extraction and the scan over the grid's
 /// words are shared, so a vote costs about 8 instructions on Cortex-M4
 /// instead of 10 (plus half the per-word overhead). Same result as two calls
-/// of [`vote_column`].
+/// of [`vote_column`] at `k` and `k + 1` (taken modulo `N`, so any `k`,
+/// `usize::MAX` included, is valid).
 pub fn vote_column_pair<
     const W: usize,
     const H: usize,
@@ -183,7 +184,8 @@ pub fn vote_column_pair<
     const { check_column::<W, H, RW, N, RHO>() };
     let table = &TrigTable::<N>::TABLE;
     let (c1, s1) = (table.cos(k), table.sin(k));
-    let (c2, s2) = (table.cos(k + 1), table.sin(k + 1));
+    // `k mod N + 1`: the same column as `k + 1`, without its overflow at usize::MAX.
+    let (c2, s2) = (table.cos(k % N + 1), table.sin(k % N + 1));
     let (step1, step2) = (2 * c1, 2 * c2);
     let mask = RHO - 1;
     let mut y2 = H as i32 - 1;

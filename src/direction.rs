@@ -81,17 +81,21 @@ pub struct HalfTurnTest {
 
 impl HalfTurnTest {
     /// `(winner − loser) / max(|winner|, |loser|)` in [0, 1] (improved mode),
-    /// or `|direct|` (paper mode, where `flipped = −direct`).
+    /// or `|direct|` (paper mode, where `flipped = −direct`). Total on any
+    /// scores (the fields are public): negation, `abs`, difference and
+    /// quotient saturate, so the extremes of [`Score`] give a value in
+    /// [0, 2] instead of an overflow; the library's own scores lie in
+    /// [−1, 1] and give [0, 1].
     pub fn margin(&self) -> Score {
         let (hi, lo) = if self.direct >= self.flipped {
             (self.direct, self.flipped)
         } else {
             (self.flipped, self.direct)
         };
-        if lo == -hi {
-            return hi.abs();
+        if lo == hi.saturating_neg() {
+            return hi.saturating_abs();
         }
-        let scale = hi.abs().max(lo.abs());
+        let scale = hi.saturating_abs().max(lo.saturating_abs());
         if scale == Score::ZERO {
             Score::ZERO
         } else {

@@ -4,6 +4,7 @@
 //! measurement costs one signature, not two.
 
 use crate::accumulator::{vote_column_split, Column, UNIT_SCALE_Q16};
+use crate::config::max_votes_per_bin;
 use crate::correlation::circular_distance;
 use crate::error::Error;
 use crate::grid::Grid;
@@ -160,7 +161,12 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
     /// and store the reference again); [`Error::BufferTooSmall`] if `bytes` is
     /// short; [`Error::InvalidReference`] if the magic, grid size, θ steps, ρ
     /// bins, mode, profile columns or checksum do not match, or the grid
-    /// disagrees with the stored cell count or has bits beyond `W`.
+    /// disagrees with the stored cell count or has bits beyond `W`, or the
+    /// bytes hold a value [`Self::to_bytes`] never writes: `S(θ) = i16::MIN`,
+    /// `S(θ) ≠ 0` in a two-bin reference, `D(θ)` above the cell count or
+    /// above [`max_votes_per_bin`](crate::config::max_votes_per_bin) (twice
+    /// it for two-bin peaks), a profile column θ ≥ `HALF` or with
+    /// `D(θ) = 0`, or an unused profile slot that is not zero.
     pub fn from_bytes(bytes: &[u8]) -> Result<Self, Error> {
         if let Some(&[b'H', b'H', b'R', version @ b'0'..=b'9']) = bytes.get(..4) {
             if version != MAGIC[3] {
@@ -202,16 +208,21 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
         }
         let mut profiles = heapless::Vec::new();
         for i in 0..PROFILE_COLUMNS {
-            let theta = u16::from_le_bytes(r.take()) as usize;
+            let theta_bytes = r.take::<2>();
+            let theta = u16::from_le_bytes(theta_bytes) as usize;
             let mut counts = [0u8; RHO];
             for c in counts.iter_mut() {
                 *c = r.take::<1>()[0];
             }
             if i < count as usize {
-                if theta >= HALF {
+                // A stored column is a local maximum of D with D > 0.
+                if theta >= HALF || signature.peak(theta) == 0 {
                     return Err(Error::InvalidReference);
                 }
                 let _ = profiles.push(Profile { theta, counts });
+            } else if theta_bytes != [0, 0] || counts.iter().any(|&c| c != 0) {
+                // Unused slots are written as zeros.
+                return Err(Error::InvalidReference);
             }
         }
         let mut rows = [[0u32; RW]; H];
@@ -219,7 +230,10 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
             *word = u32::from_le_bytes(r.take());
         }
         let grid = Grid::from_words(rows);
-        if grid.words() != &rows || grid.occupied() != occupied {
+        if grid.words() != &rows
+            || grid.occupied() != occupied
+            || !signature_is_possible(&signature, occupied, W, H)
+        {
             return Err(Error::InvalidReference);
         }
         Ok(Self {
@@ -229,6 +243,32 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
             grid,
         })
     }
+}
+
+/// Whether `signature` holds only values the library writes for a grid of
+/// `occupied` cells out of `width × height`: `S(θ) ≠ i16::MIN` (the
+/// saturation is symmetric, `|S| ≤ i16::MAX`), `S(θ) = 0` for
+/// [`PeakKind::TwoBin`] (not computed), and `D(θ) ≤ min(occupied, bound)`
+/// with `bound` = [`max_votes_per_bin`] (single bin) or twice it (two bins):
+/// each column holds every occupied cell's vote once.
+fn signature_is_possible<const HALF: usize>(
+    signature: &Signature<HALF>,
+    occupied: u32,
+    width: usize,
+    height: usize,
+) -> bool {
+    let per_bin = max_votes_per_bin(width, height) as u64;
+    let bound = match signature.kind {
+        PeakKind::SingleBin => per_bin,
+        PeakKind::TwoBin => 2 * per_bin,
+    }
+    .min(u64::from(occupied));
+    let asymmetry_ok = |&s: &i16| match signature.kind {
+        PeakKind::SingleBin => s != i16::MIN,
+        PeakKind::TwoBin => s == 0,
+    };
+    signature.peaks().iter().all(|&d| u64::from(d) <= bound)
+        && signature.asymmetries().iter().all(asymmetry_ok)
 }
 
 /// The [`PROFILE_COLUMNS`] strongest local maxima of `D`, at least 10° apart
@@ -321,7 +361,7 @@ impl Reader<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::{max_votes_per_bin, rho_bins};
+    use crate::config::rho_bins;
 
     const RHO: usize = rho_bins(32, 32);
     type R = Reference<32, 32, 1, 32, RHO>;
@@ -409,7 +449,9 @@ mod tests {
             ("kind", false, |b, _, _| b[12] = 2),
             ("profile count", false, |b, _, _| b[13] = 5),
             ("occupied", false, |b, _, _| b[16] ^= 1),
-            ("grid disagrees with the count", false, |b, _, _| b[GRID] ^= 1),
+            ("grid disagrees with the count", false, |b, _, _| {
+                b[GRID] ^= 1
+            }),
             ("profile θ ≥ HALF", false, |b, _, _| {
                 b[PROFILE..PROFILE + 2].copy_from_slice(&32u16.to_le_bytes());
             }),
@@ -435,7 +477,8 @@ mod tests {
             edit(&mut bytes, occupied, bound);
             match name {
                 "profile θ at D = 0" => {
-                    let theta = usize::from(u16::from_le_bytes([bytes[PROFILE], bytes[PROFILE + 1]]));
+                    let theta =
+                        usize::from(u16::from_le_bytes([bytes[PROFILE], bytes[PROFILE + 1]]));
                     bytes[PEAKS + 2 * theta..PEAKS + 2 * theta + 2].fill(0);
                 }
                 _ => {}
@@ -443,7 +486,11 @@ mod tests {
             if name != "checksum" {
                 resum(&mut bytes);
             }
-            assert_eq!(R::from_bytes(&bytes), Err(Error::InvalidReference), "{name}");
+            assert_eq!(
+                R::from_bytes(&bytes),
+                Err(Error::InvalidReference),
+                "{name}"
+            );
         }
     }
 

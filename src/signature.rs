@@ -196,14 +196,17 @@ impl<const HALF: usize> Signature<HALF> {
     }
 
     /// `S(θ_k)` in Q4 over the full circle; `S(θ + π) = −S(θ)`. Computed for
-    /// [`PeakKind::SingleBin`] signatures only (0 for `TwoBin`).
+    /// [`PeakKind::SingleBin`] signatures only (0 for `TwoBin`). The library
+    /// writes `|S| ≤ i16::MAX`; a stored `i16::MIN` (refused by
+    /// [`Reference::from_bytes`](crate::Reference::from_bytes)) negates to
+    /// `i16::MAX` (saturating, so total on any value).
     pub fn asymmetry(&self, k: usize) -> i16 {
         let half = HALF.max(1);
         let s = self.asymmetry.get(k % half).copied().unwrap_or(0);
         if (k / half) % 2 == 0 {
             s
         } else {
-            -s
+            s.saturating_neg()
         }
     }
 
