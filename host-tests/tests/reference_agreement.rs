@@ -148,7 +148,8 @@ fn check_rotation<
     let step = 360.0 / N as f64;
 
     // 2. α mod π within one step of the reference, or a near-tie.
-    let lib_shift = paper.alpha.nearest_step(N) % HALF;
+    // Decoded in plain f64, not with the library's `nearest_step`.
+    let lib_shift = (f64::from(paper.alpha.0) / 4_294_967_296.0 * N as f64).round() as usize % HALF;
     let ref_shift = reference.axis_shift % HALF;
     let distance = lib_shift
         .abs_diff(ref_shift)
