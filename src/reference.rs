@@ -469,20 +469,15 @@ mod tests {
             }),
             // The last slot becomes unused but keeps its bytes.
             ("unused profile slot not zero", false, |b, _, _| b[13] -= 1),
-            ("profile θ at D = 0", false, |_, _, _| {}),
+            ("profile θ at D = 0", false, |b, _, _| {
+                let theta = usize::from(u16::from_le_bytes([b[PROFILE], b[PROFILE + 1]]));
+                b[PEAKS + 2 * theta..PEAKS + 2 * theta + 2].fill(0);
+            }),
             ("checksum", false, |b, _, _| b[R::BYTES - 1] ^= 1),
         ];
         for (name, two_bin, edit) in edits {
             let mut bytes = if two_bin { two } else { single };
             edit(&mut bytes, occupied, bound);
-            match name {
-                "profile θ at D = 0" => {
-                    let theta =
-                        usize::from(u16::from_le_bytes([bytes[PROFILE], bytes[PROFILE + 1]]));
-                    bytes[PEAKS + 2 * theta..PEAKS + 2 * theta + 2].fill(0);
-                }
-                _ => {}
-            }
             if name != "checksum" {
                 resum(&mut bytes);
             }
