@@ -169,7 +169,8 @@ pub fn vote_column_split<
 
 /// Votes two adjacent columns, `k` into `first` and `k + 1` into `second`, in
 /// one pass over the grid: the bit extraction and the scan over the grid's
-/// words are shared. Same result as two calls of [`vote_column`].
+/// words are shared. Same result as two calls of [`vote_column`] at `k` and
+/// `k + 1` (taken modulo `N`, so any `k`, `usize::MAX` included, is valid).
 ///
 /// An empty word costs a load and a branch: the Q16 positions of a word are
 /// computed from its row and index only when it holds a cell (instead of a
@@ -191,7 +192,8 @@ pub fn vote_column_pair<
     const { check_column::<W, H, RW, N, RHO>() };
     let table = &TrigTable::<N>::TABLE;
     let (c1, s1) = (table.cos(k), table.sin(k));
-    let (c2, s2) = (table.cos(k + 1), table.sin(k + 1));
+    // `k mod N + 1`: the same column as `k + 1`, without its overflow at usize::MAX.
+    let (c2, s2) = (table.cos(k % N + 1), table.sin(k % N + 1));
     let (step1, step2) = (2 * c1, 2 * c2);
     let mask = RHO - 1;
     let mut y2 = H as i32 - 1;
@@ -347,5 +349,21 @@ mod tests {
         c[4] = 4;
         mirror(&mut c);
         assert_eq!(c, [0, 0, 0, 0, 4, 3, 0, 1]);
+    }
+
+    /// `k + 1` never overflows: the pair at `usize::MAX` is the columns
+    /// `usize::MAX mod N` and the next one, as two single votes give them.
+    #[test]
+    fn vote_column_pair_at_the_largest_index() {
+        let mut g = Grid::<8, 4, 1>::new();
+        g.set_cells([(0, 0), (3, 1), (7, 3), (5, 2)]).unwrap();
+        for k in [usize::MAX, usize::MAX - 1, 15, 0] {
+            let (mut first, mut second) = ([0u16; 16], [0u16; 16]);
+            vote_column_pair::<8, 4, 1, 16, 16>(&g, k, &mut first, &mut second);
+            let (mut a, mut b) = ([0u16; 16], [0u16; 16]);
+            vote_column::<8, 4, 1, 16, 16>(&g, k % 16, &mut a);
+            vote_column::<8, 4, 1, 16, 16>(&g, k % 16 + 1, &mut b);
+            assert_eq!((first, second), (a, b), "{k}");
+        }
     }
 }

@@ -8,6 +8,45 @@
 //!
 //! The ground floor with `math`: it imports nothing else of
 //! the crate.
+//!
+//! # The column votes check their sizes too
+//!
+//! The public [`stages::vote_column`](crate::stages::vote_column),
+//! [`vote_column_split`](crate::stages::vote_column_split) and
+//! [`vote_column_pair`](crate::stages::vote_column_pair) assert at compile
+//! time that `RHO = rho_bins(W, H)` (their bin mask needs it). This compiles:
+//!
+//! ```
+//! use hough_heading::{config::rho_bins, stages::vote_column_pair, Grid};
+//! const RHO: usize = rho_bins(64, 64); // 128
+//! let g = Grid::<64, 64, 2>::new();
+//! let (mut a, mut b) = ([0u16; RHO], [0u16; RHO]);
+//! vote_column_pair::<64, 64, 2, 128, RHO>(&g, 0, &mut a, &mut b);
+//! ```
+//!
+//! and each of these, the same call with another power of two for `RHO`
+//! (which would put votes in the wrong bins), is a compile error:
+//!
+//! ```compile_fail,E0080
+//! use hough_heading::{stages::vote_column_pair, Grid};
+//! let g = Grid::<64, 64, 2>::new();
+//! let (mut a, mut b) = ([0u16; 256], [0u16; 256]);
+//! vote_column_pair::<64, 64, 2, 128, 256>(&g, 0, &mut a, &mut b);
+//! ```
+//!
+//! ```compile_fail,E0080
+//! use hough_heading::{stages::vote_column, Grid};
+//! let g = Grid::<64, 64, 2>::new();
+//! let mut a = [0u16; 64];
+//! vote_column::<64, 64, 2, 128, 64>(&g, 0, &mut a);
+//! ```
+//!
+//! ```compile_fail,E0080
+//! use hough_heading::{stages::vote_column_split, Grid};
+//! let g = Grid::<64, 64, 2>::new();
+//! let mut a = [0u16; 256];
+//! vote_column_split::<64, 64, 2, 128, 256>(&g, 0, 1 << 16, &mut a);
+//! ```
 
 use crate::math::{atan_f64, isqrt_ceil, TAU};
 

@@ -81,17 +81,21 @@ pub struct HalfTurnTest {
 
 impl HalfTurnTest {
     /// `(winner − loser) / max(|winner|, |loser|)` in [0, 1] (improved mode),
-    /// or `|direct|` (paper mode, where `flipped = −direct`).
+    /// or `|direct|` (paper mode, where `flipped = −direct`). Total on any
+    /// scores (the fields are public): negation, `abs`, difference and
+    /// quotient saturate, so the extremes of [`Score`] give a value in
+    /// [0, 2] instead of an overflow; the library's own scores lie in
+    /// [−1, 1] and give [0, 1].
     pub fn margin(&self) -> Score {
         let (hi, lo) = if self.direct >= self.flipped {
             (self.direct, self.flipped)
         } else {
             (self.flipped, self.direct)
         };
-        if lo == -hi {
-            return hi.abs();
+        if lo == hi.saturating_neg() {
+            return hi.saturating_abs();
         }
-        let scale = hi.abs().max(lo.abs());
+        let scale = hi.saturating_abs().max(lo.saturating_abs());
         if scale == Score::ZERO {
             Score::ZERO
         } else {
@@ -242,5 +246,25 @@ mod tests {
             flipped: Score::from_num(0.3),
         };
         assert!((p.margin().to_num::<f32>() - 0.3).abs() < 1e-3);
+    }
+
+    /// Total on any scores (the fields are public): the extremes of
+    /// `Score` saturate instead of overflowing in `−hi` or `abs`.
+    #[test]
+    fn margin_is_total() {
+        for (direct, flipped, expected) in [
+            (Score::MIN, Score::MIN, Score::ZERO),
+            (Score::MIN, Score::MAX, Score::ONE),
+            (Score::MAX, Score::MIN, Score::ONE),
+            (Score::MAX, Score::MAX, Score::ZERO),
+            (Score::ZERO, Score::ZERO, Score::ZERO),
+        ] {
+            let t = HalfTurnTest {
+                chosen: HalfTurn::Direct,
+                direct,
+                flipped,
+            };
+            assert_eq!(t.margin(), expected, "{direct} {flipped}");
+        }
     }
 }

@@ -223,8 +223,18 @@ pub(crate) fn insert_sorted<T, const N: usize>(
     if items.is_full() {
         items.pop();
     }
-    // Cannot fail: there is room after the pop and `at ≤ len`.
-    let _ = items.insert(at, item);
+    // Pushed last, then rotated into place: the same as `insert(at, item)`
+    // (`at ≤ len`), but with no index check for the optimiser to keep
+    // (`heapless::Vec::insert`'s survived at opt-level "s", issue 14 item 2).
+    // The push cannot fail: there is room after the pop.
+    if items.push(item).is_err() {
+        return;
+    }
+    if let Some((last, before)) = items.get_mut(at..).and_then(|tail| tail.split_last_mut()) {
+        for kept in before {
+            core::mem::swap(kept, last);
+        }
+    }
 }
 
 /// Sorts `items` by `key`, largest first, stable (insertion sort: a few
@@ -370,6 +380,31 @@ mod tests {
             insert_sorted(&mut w, x, |a, b| a.0 > b.0);
         }
         assert_eq!(w.as_slice(), &[(3, 'b'), (2, 'a'), (2, 'c')]);
+    }
+
+    /// Against an independent model (append, stable sort strongest first,
+    /// keep the first `N`) on every sequence of 5 values from 0..4.
+    #[test]
+    fn insert_sorted_matches_a_stable_sort() {
+        for code in 0..4u32.pow(5) {
+            let xs: [(u32, u32); 5] =
+                core::array::from_fn(|i| ((code / 4u32.pow(i as u32)) % 4, i as u32));
+            let mut v: Vec<(u32, u32), 3> = Vec::new();
+            let mut model = [(0u32, 0u32); 5];
+            for (i, &x) in xs.iter().enumerate() {
+                insert_sorted(&mut v, x, |a, b| a.0 > b.0);
+                model[i] = x;
+                let kept = &mut model[..=i];
+                // Insertion by hand: stable, strongest first.
+                for j in (1..kept.len()).rev() {
+                    if kept[j].0 > kept[j - 1].0 {
+                        kept.swap(j, j - 1);
+                    }
+                }
+                let n = kept.len().min(3);
+                assert_eq!(v.as_slice(), &kept[..n], "{xs:?} after {i}");
+            }
+        }
     }
 
     #[test]

@@ -4,6 +4,7 @@
 //! measurement costs one signature, not two.
 
 use crate::accumulator::{vote_column_split, Column, UNIT_SCALE_Q16};
+use crate::config::max_votes_per_bin;
 use crate::correlation::circular_distance;
 use crate::error::Error;
 use crate::grid::Grid;
@@ -160,7 +161,12 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
     /// and store the reference again); [`Error::BufferTooSmall`] if `bytes` is
     /// short; [`Error::InvalidReference`] if the magic, grid size, θ steps, ρ
     /// bins, mode, profile columns or checksum do not match, or the grid
-    /// disagrees with the stored cell count or has bits beyond `W`.
+    /// disagrees with the stored cell count or has bits beyond `W`, or the
+    /// bytes hold a value [`Self::to_bytes`] never writes: `S(θ) = i16::MIN`,
+    /// `S(θ) ≠ 0` in a two-bin reference, `D(θ)` above the cell count or
+    /// above [`max_votes_per_bin`](crate::config::max_votes_per_bin) (twice
+    /// it for two-bin peaks), a profile column θ ≥ `HALF` or with
+    /// `D(θ) = 0`, or an unused profile slot that is not zero.
     pub fn from_bytes(bytes: &[u8]) -> Result<Self, Error> {
         if let Some(&[b'H', b'H', b'R', version @ b'0'..=b'9']) = bytes.get(..4) {
             if version != MAGIC[3] {
@@ -202,16 +208,21 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
         }
         let mut profiles = heapless::Vec::new();
         for i in 0..PROFILE_COLUMNS {
-            let theta = u16::from_le_bytes(r.take()) as usize;
+            let theta_bytes = r.take::<2>();
+            let theta = u16::from_le_bytes(theta_bytes) as usize;
             let mut counts = [0u8; RHO];
             for c in counts.iter_mut() {
                 *c = r.take::<1>()[0];
             }
             if i < count as usize {
-                if theta >= HALF {
+                // A stored column is a local maximum of D with D > 0.
+                if theta >= HALF || signature.peak(theta) == 0 {
                     return Err(Error::InvalidReference);
                 }
                 let _ = profiles.push(Profile { theta, counts });
+            } else if theta_bytes != [0, 0] || counts.iter().any(|&c| c != 0) {
+                // Unused slots are written as zeros.
+                return Err(Error::InvalidReference);
             }
         }
         let mut rows = [[0u32; RW]; H];
@@ -219,7 +230,10 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
             *word = u32::from_le_bytes(r.take());
         }
         let grid = Grid::from_words(rows);
-        if grid.words() != &rows || grid.occupied() != occupied {
+        if grid.words() != &rows
+            || grid.occupied() != occupied
+            || !signature_is_possible(&signature, occupied, W, H)
+        {
             return Err(Error::InvalidReference);
         }
         Ok(Self {
@@ -229,6 +243,32 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
             grid,
         })
     }
+}
+
+/// Whether `signature` holds only values the library writes for a grid of
+/// `occupied` cells out of `width × height`: `S(θ) ≠ i16::MIN` (the
+/// saturation is symmetric, `|S| ≤ i16::MAX`), `S(θ) = 0` for
+/// [`PeakKind::TwoBin`] (not computed), and `D(θ) ≤ min(occupied, bound)`
+/// with `bound` = [`max_votes_per_bin`] (single bin) or twice it (two bins):
+/// each column holds every occupied cell's vote once.
+fn signature_is_possible<const HALF: usize>(
+    signature: &Signature<HALF>,
+    occupied: u32,
+    width: usize,
+    height: usize,
+) -> bool {
+    let per_bin = max_votes_per_bin(width, height) as u64;
+    let bound = match signature.kind {
+        PeakKind::SingleBin => per_bin,
+        PeakKind::TwoBin => 2 * per_bin,
+    }
+    .min(u64::from(occupied));
+    let asymmetry_ok = |&s: &i16| match signature.kind {
+        PeakKind::SingleBin => s != i16::MIN,
+        PeakKind::TwoBin => s == 0,
+    };
+    signature.peaks().iter().all(|&d| u64::from(d) <= bound)
+        && signature.asymmetries().iter().all(asymmetry_ok)
 }
 
 /// The [`PROFILE_COLUMNS`] strongest local maxima of `D`, at least 10° apart
@@ -315,5 +355,152 @@ impl Reader<'_> {
         }
         self.at += K;
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::rho_bins;
+
+    const RHO: usize = rho_bins(32, 32);
+    type R = Reference<32, 32, 1, 32, RHO>;
+
+    /// An L of two walls and a stray cell: a reference with several profiles.
+    fn prepared(kind: PeakKind) -> R {
+        let mut g = Grid::<32, 32, 1>::new();
+        g.set_cells((4..28).map(|c| (c, 6))).unwrap();
+        g.set_cells((6..26).map(|r| (5, r))).unwrap();
+        g.set_cells([(20, 20), (25, 12)]).unwrap();
+        let mut columns = [[0u16; RHO]; 2];
+        R::prepare::<64>(&g, kind, &mut columns)
+    }
+
+    fn bytes_of(r: &R) -> [u8; R::BYTES] {
+        let mut out = [0u8; R::BYTES];
+        assert_eq!(r.to_bytes(&mut out), Ok(R::BYTES));
+        out
+    }
+
+    /// Recomputes the checksum after an edit, as `to_bytes` writes it.
+    fn resum(bytes: &mut [u8]) {
+        let end = bytes.len() - 4;
+        let sum = fnv1a(&bytes[..end]);
+        bytes[end..].copy_from_slice(&sum.to_le_bytes());
+    }
+
+    const PEAKS: usize = 20;
+    const ASYMMETRY: usize = PEAKS + 2 * 32;
+    const PROFILE: usize = ASYMMETRY + 2 * 32;
+    const GRID: usize = PROFILE + PROFILE_COLUMNS * (2 + RHO);
+
+    #[test]
+    fn round_trip_both_kinds() {
+        for kind in [PeakKind::SingleBin, PeakKind::TwoBin] {
+            let r = prepared(kind);
+            assert!(r.profiles().len() >= 2, "{kind:?}");
+            let bytes = bytes_of(&r);
+            assert_eq!(R::from_bytes(&bytes), Ok(r.clone()));
+            // Longer buffers are fine: only the first BYTES count.
+            let mut long = [0xA5u8; R::BYTES + 7];
+            long[..R::BYTES].copy_from_slice(&bytes);
+            assert_eq!(R::from_bytes(&long), Ok(r.clone()));
+            // Too short to write or to read.
+            let mut short = [0u8; R::BYTES - 1];
+            let needed = Error::BufferTooSmall { needed: R::BYTES };
+            assert_eq!(r.to_bytes(&mut short), Err(needed));
+            assert_eq!(R::from_bytes(&bytes[..R::BYTES - 1]), Err(needed));
+        }
+    }
+
+    #[test]
+    fn version_is_checked_before_anything_else() {
+        let mut bytes = bytes_of(&prepared(PeakKind::SingleBin));
+        assert_eq!(&bytes[..4], b"HHR3");
+        for version in [b'0', b'2', b'4', b'9'] {
+            bytes[3] = version;
+            let expected = Error::ReferenceVersion {
+                found: version - b'0',
+                expected: REFERENCE_FORMAT,
+            };
+            // Even a short buffer with a wrong checksum says "version".
+            assert_eq!(R::from_bytes(&bytes), Err(expected));
+            assert_eq!(R::from_bytes(&bytes[..4]), Err(expected));
+        }
+    }
+
+    /// Every field `from_bytes` checks, edited with the checksum recomputed:
+    /// each edit alone is refused.
+    #[test]
+    fn every_rejected_field() {
+        let single = bytes_of(&prepared(PeakKind::SingleBin));
+        let two = bytes_of(&prepared(PeakKind::TwoBin));
+        let r = prepared(PeakKind::SingleBin);
+        assert!(!r.profiles().is_empty());
+        let occupied = r.occupied() as u16;
+        let bound = max_votes_per_bin(32, 32) as u16;
+        type Edit = fn(&mut [u8], u16, u16);
+        let edits: [(&str, bool, Edit); 17] = [
+            ("magic", false, |b, _, _| b[0] = b'X'),
+            ("width", false, |b, _, _| b[4] = 33),
+            ("height", false, |b, _, _| b[6] = 31),
+            ("half", false, |b, _, _| b[8] = 16),
+            ("rho", false, |b, _, _| b[10] = 0),
+            ("kind", false, |b, _, _| b[12] = 2),
+            ("profile count", false, |b, _, _| b[13] = 5),
+            ("occupied", false, |b, _, _| b[16] ^= 1),
+            ("grid disagrees with the count", false, |b, _, _| {
+                b[GRID] ^= 1
+            }),
+            ("profile θ ≥ HALF", false, |b, _, _| {
+                b[PROFILE..PROFILE + 2].copy_from_slice(&32u16.to_le_bytes());
+            }),
+            ("S = i16::MIN", false, |b, _, _| {
+                b[ASYMMETRY + 6..ASYMMETRY + 8].copy_from_slice(&i16::MIN.to_le_bytes());
+            }),
+            ("S ≠ 0 in a two-bin reference", true, |b, _, _| {
+                b[ASYMMETRY + 6..ASYMMETRY + 8].copy_from_slice(&1i16.to_le_bytes());
+            }),
+            ("D above the cell count", false, |b, occupied, _| {
+                b[PEAKS + 4..PEAKS + 6].copy_from_slice(&(occupied + 1).to_le_bytes());
+            }),
+            ("D above the two-bin bound", true, |b, _, bound| {
+                b[PEAKS + 4..PEAKS + 6].copy_from_slice(&(2 * bound + 1).to_le_bytes());
+            }),
+            // The last slot becomes unused but keeps its bytes.
+            ("unused profile slot not zero", false, |b, _, _| b[13] -= 1),
+            ("profile θ at D = 0", false, |b, _, _| {
+                let theta = usize::from(u16::from_le_bytes([b[PROFILE], b[PROFILE + 1]]));
+                b[PEAKS + 2 * theta..PEAKS + 2 * theta + 2].fill(0);
+            }),
+            ("checksum", false, |b, _, _| b[R::BYTES - 1] ^= 1),
+        ];
+        for (name, two_bin, edit) in edits {
+            let mut bytes = if two_bin { two } else { single };
+            edit(&mut bytes, occupied, bound);
+            if name != "checksum" {
+                resum(&mut bytes);
+            }
+            assert_eq!(
+                R::from_bytes(&bytes),
+                Err(Error::InvalidReference),
+                "{name}"
+            );
+        }
+    }
+
+    /// Bounds `from_bytes` accepts: `|S| = i16::MAX` (what the saturation
+    /// writes) and `D` at the cell count.
+    #[test]
+    fn extreme_values_the_library_writes_are_accepted() {
+        let r = prepared(PeakKind::SingleBin);
+        let mut bytes = bytes_of(&r);
+        bytes[ASYMMETRY..ASYMMETRY + 2].copy_from_slice(&i16::MAX.to_le_bytes());
+        bytes[ASYMMETRY + 2..ASYMMETRY + 4].copy_from_slice(&(-i16::MAX).to_le_bytes());
+        bytes[PEAKS + 2..PEAKS + 4].copy_from_slice(&(r.occupied() as u16).to_le_bytes());
+        resum(&mut bytes);
+        let read = R::from_bytes(&bytes).unwrap();
+        assert_eq!(read.signature().asymmetry(32), -i16::MAX);
+        assert_eq!(read.signature().asymmetry(33), i16::MAX);
     }
 }

@@ -196,14 +196,17 @@ impl<const HALF: usize> Signature<HALF> {
     }
 
     /// `S(θ_k)` in Q4 over the full circle; `S(θ + π) = −S(θ)`. Computed for
-    /// [`PeakKind::SingleBin`] signatures only (0 for `TwoBin`).
+    /// [`PeakKind::SingleBin`] signatures only (0 for `TwoBin`). The library
+    /// writes `|S| ≤ i16::MAX`; a stored `i16::MIN` (refused by
+    /// [`Reference::from_bytes`](crate::Reference::from_bytes)) negates to
+    /// `i16::MAX` (saturating, so total on any value).
     pub fn asymmetry(&self, k: usize) -> i16 {
         let half = HALF.max(1);
         let s = self.asymmetry.get(k % half).copied().unwrap_or(0);
         if (k / half) % 2 == 0 {
             s
         } else {
-            -s
+            s.saturating_neg()
         }
     }
 
@@ -249,5 +252,20 @@ mod tests {
             let streamed = Signature::<18>::stream::<20, 12, 1, 36, 32>(&g, kind, &mut columns);
             assert_eq!(streamed, Signature::from_accumulator(&acc, kind));
         }
+    }
+
+    /// `S(θ + π) = −S(θ)` is total: a stored `i16::MIN` (which
+    /// `Reference::from_bytes` refuses, but a `Signature` can hold) reads
+    /// back as `i16::MAX` on the other half, not as an overflow.
+    #[test]
+    fn asymmetry_of_the_other_half_saturates() {
+        let mut s = Signature::<4>::empty(PeakKind::SingleBin);
+        s.asymmetry = [i16::MIN, i16::MAX, -7, 0];
+        assert_eq!(s.asymmetry(0), i16::MIN);
+        assert_eq!(s.asymmetry(4), i16::MAX);
+        assert_eq!(s.asymmetry(5), -i16::MAX);
+        assert_eq!(s.asymmetry(6), 7);
+        assert_eq!(s.asymmetry(8), i16::MIN);
+        assert_eq!(s.asymmetry(usize::MAX), 0);
     }
 }

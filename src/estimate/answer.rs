@@ -275,3 +275,93 @@ pub(crate) fn verified_confidence(overlap: Score, lead: Score, t: &Thresholds) -
     };
     overlap.clamp(Score::ZERO, one) * ramp(lead, needed) * ramp(overlap, t.min_overlap)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `confidence` against its formula in f64:
+    /// `best · clamp(10·(rival_ratio − rival/best)) · clamp((margin − m)/m)`.
+    #[test]
+    fn confidence_matches_its_formula() {
+        let t = Thresholds::DEFAULT;
+        let (ratio, m) = (0.9, 0.1);
+        let clamp = |v: f64| v.clamp(0.0, 1.0);
+        for &(best, rival, margin) in &[
+            (0.95, 0.5, 0.6),
+            (0.8, 0.7, 0.15),
+            (0.9, 0.85, 0.3),
+            (0.7, 0.2, 0.05),
+            (1.0, 0.0, 1.0),
+            (0.6, 0.6, 0.5),
+        ] {
+            let expected =
+                clamp(best) * clamp(10.0 * (ratio - rival / best)) * clamp((margin - m) / m);
+            let got = confidence(
+                Score::from_num(best),
+                Score::from_num(rival),
+                Score::from_num(margin),
+                &t,
+            )
+            .to_num::<f64>();
+            assert!(
+                (got - expected).abs() < 2e-3,
+                "{best} {rival} {margin}: {got} vs {expected}"
+            );
+        }
+        // A rival at the threshold ratio or a margin at the threshold: 0.
+        let zero = |b: f64, r: f64, g: f64| {
+            confidence(
+                Score::from_num(b),
+                Score::from_num(r),
+                Score::from_num(g),
+                &t,
+            )
+        };
+        assert_eq!(zero(0.8, 0.8, 0.9), Score::ZERO);
+        assert_eq!(zero(0.8, 0.1, 0.1), Score::ZERO);
+        assert_eq!(zero(0.0, 0.0, 1.0), Score::ZERO);
+        // Extremes stay in [0, 1].
+        for v in [Score::MIN, Score::ZERO, Score::ONE, Score::MAX] {
+            let c = confidence(v, v, v, &t);
+            assert!((Score::ZERO..=Score::ONE).contains(&c), "{v}: {c}");
+        }
+    }
+
+    fn candidate(degrees: f32) -> Candidate {
+        Candidate {
+            alpha: Angle::from_degrees(degrees),
+            score: Score::ONE,
+            alignment: None,
+            translation: None,
+        }
+    }
+
+    /// The nearest candidate within 3σ, alone or not; none outside.
+    #[test]
+    fn pick_with_prior_by_hand() {
+        let c = [candidate(10.0), candidate(190.0), candidate(30.0)];
+        let prior = |a: f32, s: f32| Prior {
+            alpha: Angle::from_degrees(a),
+            sigma: Angle::from_degrees(s),
+        };
+        assert_eq!(
+            pick_with_prior(&c, prior(185.0, 2.0)),
+            Some((c[1].alpha, true))
+        );
+        // 10° and 30° both within 3·8°: the nearer, not alone.
+        assert_eq!(
+            pick_with_prior(&c, prior(22.0, 8.0)),
+            Some((c[2].alpha, false))
+        );
+        assert_eq!(pick_with_prior(&c, prior(100.0, 5.0)), None);
+        assert_eq!(pick_with_prior(&[], prior(0.0, 180.0)), None);
+        // Across 0°: 350° is 20° from 10°.
+        assert_eq!(
+            pick_with_prior(&c, prior(350.0, 7.0)),
+            Some((c[0].alpha, true))
+        );
+        // A huge σ saturates instead of wrapping.
+        assert!(pick_with_prior(&c, prior(0.0, 170.0)).is_some());
+    }
+}

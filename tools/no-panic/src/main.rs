@@ -5,7 +5,12 @@
 //! estimator configurations, including the verification by alignment
 //! (estimates with it on and off, `Reference::grid`, `Grid::occupied_cells`,
 //! the pyramid sizes) and stored references of the previous format (version
-//! 2, which `Reference::from_bytes` must refuse with a typed error). Each group of calls sits in its own
+//! 2, which `Reference::from_bytes` must refuse with a typed error). Every
+//! `pub fn` of the library (root, `config`, `stages`, and their methods) is
+//! called: `vote_column_pair`, `Signature::stream`/`restream`,
+//! `Reference::prepare`, `TrigTable::cos`/`sin`, `ScaleRange::min`/`max`,
+//! `config::align_points` and `icp_points` were added for issue 14 item 2
+//! (checked by name against `grep 'pub (const )?fn' src`). Each group of calls sits in its own
 //! `#[inline(never)]` function named `entry_*`, so a remaining panic path can
 //! be attributed to the entry point that reaches it.
 //!
@@ -115,6 +120,7 @@ fn entry_estimator<
     opaque(e.verification());
     if opaque(false) {
         if let Ok(range) = ScaleRange::new(opaque(Score::ONE), opaque(Score::ONE)) {
+            opaque((range.min(), range.max()));
             e = e.with_scale_search(range);
         }
         e.set_scale_search(opaque(Some(ScaleRange::DEFAULT)));
@@ -221,6 +227,22 @@ fn entry_votes<
     opaque(signature.kind());
     opaque(signature.peaks());
     opaque(signature.asymmetries());
+    // Issue 14 item 2: the streaming signature, the pair vote at any `k`,
+    // the trig table and a prepared reference.
+    let mut pair: [Column<RHO>; 2] = opaque([[0u16; RHO]; 2]);
+    let [first, second] = &mut pair;
+    hough_heading::stages::vote_column_pair::<W, H, RW, N, RHO>(grid, opaque(0), first, second);
+    opaque(&pair);
+    let mut streamed = Signature::<HALF>::stream::<W, H, RW, N, RHO>(grid, opaque_kind(), &mut pair);
+    streamed.restream::<W, H, RW, N, RHO>(grid, opaque_kind(), &mut pair);
+    opaque(&streamed);
+    let table = &hough_heading::stages::TrigTable::<N>::TABLE;
+    opaque(table.cos(opaque(0)));
+    opaque(table.sin(opaque(0)));
+    let prepared = Reference::<W, H, RW, HALF, RHO>::prepare::<N>(grid, opaque_kind(), &mut pair);
+    opaque(prepared.profiles());
+    opaque(prepared.occupied());
+    opaque(prepared.signature());
 }
 
 /// Correlation, direction tests and the translation fit on arbitrary data.
@@ -304,6 +326,8 @@ fn entry_config() {
     opaque(max_votes_per_bin(opaque(0), opaque(0)));
     opaque(pyramid_levels(opaque(0), opaque(0)));
     opaque(pyramid_words(opaque(0), opaque(0)));
+    opaque(hough_heading::config::align_points(opaque(0), opaque(0)));
+    opaque(hough_heading::config::icp_points(opaque(0), opaque(0)));
     opaque(ALIGN_POINTS);
     opaque(REFERENCE_FORMAT);
 }
