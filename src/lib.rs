@@ -164,6 +164,12 @@ pub mod stages {
     pub use crate::trig::{TrigTable, TRIG_FRACTION_BITS};
 }
 
+// The README's examples run as doctests (`cargo test --doc`), so the user
+// guide cannot drift from the API.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;
+
 /// Scores (correlations, margins, confidence) in Q16.16.
 pub type Score = fixed::types::I16F16;
 
