@@ -311,3 +311,56 @@ impl<
         )
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{pyramid_words, rho_bins};
+
+    type E = Estimator<64, 64, 2, 128, 64, { rho_bins(64, 64) }, { pyramid_words(64, 64) }>;
+
+    /// A centred rectangle outline: centrally symmetric, so α and α + π
+    /// are both candidates and the direction is ambiguous; a prior picks.
+    #[test]
+    fn estimate_with_prior_picks_among_the_candidates() {
+        let mut g = Grid::<64, 64, 2>::new();
+        g.set_cells((12..52).flat_map(|c| [(c, 22), (c, 41)]))
+            .unwrap();
+        g.set_cells((22..42).flat_map(|r| [(12, r), (51, r)]))
+            .unwrap();
+        for verify in [false, true] {
+            let mut e = E::new(Mode::Improved).with_verification(verify);
+            let reference = e.reference(&g);
+            let plain = e.estimate(&reference, &g);
+            assert_ne!(plain.status, Status::Confident, "verify {verify}");
+            let near = |e: &Estimate, degrees: f32| {
+                e.alpha.distance(Angle::from_degrees(degrees)).to_degrees() < 1.0
+            };
+            assert!(plain.candidates.iter().any(|c| near_c(c, 0.0)));
+            assert!(plain.candidates.iter().any(|c| near_c(c, 180.0)));
+            for target in [0.0f32, 180.0] {
+                let prior = Prior {
+                    alpha: Angle::from_degrees(target + 2.0),
+                    sigma: Angle::from_degrees(3.0),
+                };
+                let picked = e.estimate_with_prior(&reference, &g, Some(prior));
+                assert!(near(&picked, target), "verify {verify}: {:?}", picked.alpha);
+                assert_eq!(picked.status, Status::Confident, "verify {verify}");
+            }
+            // A prior far from every candidate changes nothing.
+            let far = Prior {
+                alpha: Angle::from_degrees(90.0),
+                sigma: Angle::from_degrees(1.0),
+            };
+            let unchanged = e.estimate_with_prior(&reference, &g, Some(far));
+            assert_eq!(
+                (unchanged.alpha, unchanged.status),
+                (plain.alpha, plain.status)
+            );
+        }
+    }
+
+    fn near_c(c: &Candidate, degrees: f32) -> bool {
+        c.alpha.distance(Angle::from_degrees(degrees)).to_degrees() < 1.0
+    }
+}
