@@ -26,9 +26,9 @@
 //! the stack pointer.
 //!
 //! The `config` line gives the state: `size_of` the estimator and the
-//! reference, and of the parts that only the verification needs: the
-//! estimator's pyramid (`4 · pyramid_words(W, H)` bytes) and the grid the
-//! reference keeps (`size_of` a grid).
+//! reference, and of the part that only the verification needs: the grid the
+//! reference keeps (`size_of` a grid; the verification builds its pyramid on
+//! its own stack).
 //!
 //! With `HH_BENCH_BASELINE=1` the same program is built without calling the
 //! library and without the grids (every value it would log is a `black_box`),
@@ -45,9 +45,9 @@ mod firmware {
     use core::mem::size_of;
 
     use hough_heading::{
-        config::half_turn_steps, config::pyramid_words, config::rho_bins, config::row_words,
-        estimator, grid, reference, stages::vote_column, stages::vote_column_pair, stages::Column,
-        Angle, Estimate, Grid, Mode, ScaleRange,
+        config::half_turn_steps, config::rho_bins, config::row_words, estimator, grid, reference,
+        stages::vote_column, stages::vote_column_pair, stages::Column, Angle, Estimate, Grid, Mode,
+        ScaleRange,
     };
 
     use crate::support::room::{room_words, Pose};
@@ -268,12 +268,11 @@ mod firmware {
     fn main() -> ! {
         let state = size_of::<Estimator>() + size_of::<Reference>();
         defmt::println!(
-            "config side={=usize} n_theta={=usize} estimator={=usize} reference={=usize} pyramid={=usize} reference_grid={=usize}",
+            "config side={=usize} n_theta={=usize} estimator={=usize} reference={=usize} reference_grid={=usize}",
             SIDE,
             N_THETA,
             size_of::<Estimator>(),
             size_of::<Reference>(),
-            4 * pyramid_words(SIDE, SIDE),
             size_of::<BenchGrid>()
         );
         if state as u32 > stack_pointer().saturating_sub(RAM_ORIGIN) {

@@ -1,7 +1,11 @@
 //! Firmware example: the robot's loop. Prepare a reference once, then estimate
 //! each new view against it.
 //!
-//! The reference is the room as the robot first saw it; each later view (here
+//! The reference is the room as the robot first saw it, stored with the
+//! firmware (`data/home-128-360.hhr`, 3 824 bytes) and parsed by the compiler
+//! into a `static`: it lives in flash and costs no RAM. At start-up the program
+//! checks that it is what the library prepares from the home view today. Each
+//! later view (here
 //! five 128² grids rasterised into flash at compile time, standing in for laser
 //! scans) costs one signature, not two, plus the verification by alignment
 //! against the grid the reference keeps (on by default in `Mode::Improved`).
@@ -20,7 +24,9 @@ mod support;
 
 #[cfg(target_os = "none")]
 mod firmware {
-    use hough_heading::{config::row_words, estimator, grid, Grid, Mode, Score, Status};
+    use hough_heading::{
+        config::row_words, estimator, grid, reference, Grid, Mode, Reference, Score, Status,
+    };
 
     use crate::support::room::{room_words, Pose};
     use crate::support::{self, ScopePin};
@@ -40,6 +46,15 @@ mod firmware {
 
     type Estimator = estimator!(SIDE, SIDE, N_THETA);
     type View = grid!(SIDE, SIDE);
+    type Stored = reference!(SIDE, SIDE, N_THETA);
+
+    /// The reference of [`HOME`], stored with the firmware and parsed at
+    /// compile time (invalid bytes fail the build). Rewrite the file with
+    /// `UPDATE_STORED_REFERENCE=1 cargo test -p host-tests --test stored_reference`.
+    static STORED: Stored = match Reference::from_bytes(include_bytes!("data/home-128-360.hhr")) {
+        Ok(r) => r,
+        Err(_) => panic!("data/home-128-360.hhr is not a 128², N_THETA = 360 reference"),
+    };
 
     /// The first view: the reference.
     static HOME: View = Grid::from_words(room_words::<SIDE, SIDE, RW>(Pose::ORIGIN));
@@ -83,16 +98,20 @@ mod firmware {
     fn main() -> ! {
         let mut pin = ScopePin::default();
         let mut estimator = Estimator::new(Mode::Improved);
-        let reference = estimator.reference(&HOME);
+        if estimator.reference(&HOME) != STORED {
+            defmt::println!("robot_loop: FAIL (the stored reference is stale)");
+            support::exit(support::EXIT_WRONG_ESTIMATE)
+        }
+        let reference = &STORED;
         defmt::println!(
-            "robot_loop: reference of {=u32} cells prepared, {=usize} views to go",
+            "robot_loop: reference of {=u32} cells in flash, {=usize} views to go",
             reference.occupied(),
             VIEWS.len()
         );
 
         let mut failures = 0u32;
         for (i, (view, pose)) in VIEWS.iter().zip(POSES).enumerate() {
-            let Ok(estimate) = support::timed(&mut pin, || estimator.estimate(&reference, view));
+            let Ok(estimate) = support::timed(&mut pin, || estimator.estimate(reference, view));
             let expected = support::angle_of_degrees(pose.degrees as i32);
             let error = support::error_millidegrees(estimate.alpha, expected);
             // Q16.16 to thousandths.

@@ -147,8 +147,18 @@ impl<const W: usize, const H: usize, const ROW_WORDS: usize> Grid<W, H, ROW_WORD
     }
 
     /// Number of occupied cells.
-    pub fn occupied(&self) -> u32 {
-        self.rows.iter().flatten().map(|w| w.count_ones()).sum()
+    pub const fn occupied(&self) -> u32 {
+        let mut total = 0;
+        let mut r = 0;
+        while r < H {
+            let mut w = 0;
+            while w < ROW_WORDS {
+                total += self.rows[r][w].count_ones();
+                w += 1;
+            }
+            r += 1;
+        }
+        total
     }
 
     /// The occupied cells `(col, row)` in raster order (row 0 first, then by

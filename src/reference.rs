@@ -24,10 +24,20 @@ pub struct Profile<const RHO: usize> {
     pub counts: [u8; RHO],
 }
 
+impl<const RHO: usize> Profile<RHO> {
+    /// An unused profile slot: column 0, no counts.
+    const EMPTY: Self = Self {
+        theta: 0,
+        counts: [0; RHO],
+    };
+}
+
 /// A prepared reference: signature plus up to [`PROFILE_COLUMNS`] profiles.
 ///
-/// Size: about `4·HALF + 4·(RHO + 8) + 16` bytes (128², `N_THETA` = 360:
-/// 1.8 KiB).
+/// Size: about `4·HALF + 4·(RHO + 8) + 4·RW·H + 16` bytes (128², `N_THETA`
+/// = 360: 3.7 KiB, of which the grid kept for the verification by alignment
+/// is 2 KiB). A reference stored with the firmware can live in flash instead
+/// of RAM: see [`Self::from_bytes`].
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Reference<
     const W: usize,
@@ -37,7 +47,9 @@ pub struct Reference<
     const RHO: usize,
 > {
     pub(crate) signature: Signature<HALF>,
-    pub(crate) profiles: heapless::Vec<Profile<RHO>, PROFILE_COLUMNS>,
+    pub(crate) profiles: [Profile<RHO>; PROFILE_COLUMNS],
+    /// How many of `profiles` are used (the first `count`).
+    pub(crate) count: u8,
     pub(crate) occupied: u32,
     pub(crate) grid: Grid<W, H, RW>,
 }
@@ -52,7 +64,7 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
 {
     /// Bytes of [`Self::to_bytes`]: header 20, signature `4·HALF`, profiles
     /// `4·(2 + RHO)`, the grid `4·RW·H` (for the verification by alignment),
-    /// checksum 4. 128², `N_THETA` = 360: 4 164 bytes, of which the grid is
+    /// checksum 4. 128², `N_THETA` = 360: 3 824 bytes, of which the grid is
     /// 2 048.
     pub const BYTES: usize = 20 + 4 * HALF + PROFILE_COLUMNS * (2 + RHO) + 4 * RW * H + 4;
 
@@ -66,8 +78,9 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
     ) -> Self {
         let signature = Signature::<HALF>::stream::<W, H, RW, N, RHO>(grid, kind, columns);
         let [column, _] = columns;
-        let mut profiles = heapless::Vec::new();
-        for theta in strongest_columns(&signature) {
+        let mut profiles = [const { Profile::EMPTY }; PROFILE_COLUMNS];
+        let chosen = strongest_columns(&signature);
+        for (slot, &theta) in profiles.iter_mut().zip(&chosen) {
             column.fill(0);
             vote_column_split::<W, H, RW, N, RHO>(grid, theta, UNIT_SCALE_Q16, column);
             let max = column.iter().copied().max().unwrap_or(0);
@@ -76,12 +89,13 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
             for (c, &a) in counts.iter_mut().zip(column.iter()) {
                 *c = (a >> shift) as u8;
             }
-            // Cannot fail: at most PROFILE_COLUMNS columns are chosen.
-            let _ = profiles.push(Profile { theta, counts });
+            *slot = Profile { theta, counts };
         }
         Self {
             signature,
             profiles,
+            // At most PROFILE_COLUMNS columns are chosen.
+            count: chosen.len() as u8,
             occupied: grid.occupied(),
             grid: grid.clone(),
         }
@@ -99,7 +113,7 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
 
     /// The stored column profiles, strongest column first.
     pub fn profiles(&self) -> &[Profile<RHO>] {
-        &self.profiles
+        self.profiles.get(..self.count as usize).unwrap_or(&[])
     }
 
     /// Number of occupied cells of the reference grid.
@@ -122,12 +136,7 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
         w.put(&(H as u16).to_le_bytes());
         w.put(&(HALF as u16).to_le_bytes());
         w.put(&(RHO as u16).to_le_bytes());
-        w.put(&[
-            kind_byte(self.signature.kind),
-            self.profiles.len() as u8,
-            0,
-            0,
-        ]);
+        w.put(&[kind_byte(self.signature.kind), self.count, 0, 0]);
         w.put(&self.occupied.to_le_bytes());
         for p in self.signature.peaks() {
             w.put(&p.to_le_bytes());
@@ -136,7 +145,7 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
             w.put(&s.to_le_bytes());
         }
         for i in 0..PROFILE_COLUMNS {
-            match self.profiles.get(i) {
+            match self.profiles().get(i) {
                 Some(p) => {
                     w.put(&(p.theta as u16).to_le_bytes());
                     w.put(&p.counts);
@@ -147,7 +156,7 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
         for word in self.grid.words().iter().flatten() {
             w.put(&word.to_le_bytes());
         }
-        let sum = fnv1a(&w.out[..w.at]);
+        let sum = fnv1a(w.out, w.at);
         w.put(&sum.to_le_bytes());
         Ok(Self::BYTES)
     }
@@ -167,70 +176,103 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
     /// above [`max_votes_per_bin`](crate::config::max_votes_per_bin) (twice
     /// it for two-bin peaks), a profile column θ ≥ `HALF` or with
     /// `D(θ) = 0`, or an unused profile slot that is not zero.
-    pub fn from_bytes(bytes: &[u8]) -> Result<Self, Error> {
-        if let Some(&[b'H', b'H', b'R', version @ b'0'..=b'9']) = bytes.get(..4) {
-            if version != MAGIC[3] {
-                return Err(Error::ReferenceVersion {
-                    found: version.wrapping_sub(b'0'),
-                    expected: REFERENCE_FORMAT,
-                });
-            }
+    ///
+    /// A `const fn`: a reference stored with the firmware can be parsed at
+    /// compile time into a `static`, which then lives in flash and costs no
+    /// RAM (the checks above run in the compiler; invalid bytes fail the
+    /// build):
+    ///
+    /// ```ignore
+    /// static REFERENCE: hough_heading::reference!(128, 128, 360) =
+    ///     match hough_heading::Reference::from_bytes(include_bytes!("dock.hhr")) {
+    ///         Ok(r) => r,
+    ///         Err(_) => panic!("dock.hhr is not a 128², N_THETA = 360 reference"),
+    ///     };
+    /// ```
+    pub const fn from_bytes(bytes: &[u8]) -> Result<Self, Error> {
+        let version = byte(bytes, 3);
+        if bytes.len() >= 4
+            && byte(bytes, 0) == b'H'
+            && byte(bytes, 1) == b'H'
+            && byte(bytes, 2) == b'R'
+            && version.is_ascii_digit()
+            && version != MAGIC[3]
+        {
+            return Err(Error::ReferenceVersion {
+                found: version.wrapping_sub(b'0'),
+                expected: REFERENCE_FORMAT,
+            });
         }
-        let bytes = bytes.get(..Self::BYTES).ok_or(Error::BufferTooSmall {
-            needed: Self::BYTES,
-        })?;
-        let (body, sum) = bytes.split_at(Self::BYTES - 4);
-        if sum != fnv1a(body).to_le_bytes() {
+        if bytes.len() < Self::BYTES {
+            return Err(Error::BufferTooSmall {
+                needed: Self::BYTES,
+            });
+        }
+        let body = Self::BYTES - 4;
+        if le_u32(bytes, body) != fnv1a(bytes, body) {
             return Err(Error::InvalidReference);
         }
-        let mut r = Reader { bytes: body, at: 0 };
-        let header_ok = r.take::<4>() == MAGIC
-            && u16::from_le_bytes(r.take()) as usize == W
-            && u16::from_le_bytes(r.take()) as usize == H
-            && u16::from_le_bytes(r.take()) as usize == HALF
-            && u16::from_le_bytes(r.take()) as usize == RHO;
-        let [kind, count, _, _] = r.take::<4>();
-        let kind = match kind {
+        let header_ok = le_u32(bytes, 0) == u32::from_le_bytes(MAGIC)
+            && le_u16(bytes, 4) as usize == W
+            && le_u16(bytes, 6) as usize == H
+            && le_u16(bytes, 8) as usize == HALF
+            && le_u16(bytes, 10) as usize == RHO;
+        let kind = match byte(bytes, 12) {
             0 => PeakKind::SingleBin,
             1 => PeakKind::TwoBin,
             _ => return Err(Error::InvalidReference),
         };
-        if !header_ok || count as usize > PROFILE_COLUMNS {
+        let count = byte(bytes, 13) as usize;
+        if !header_ok || count > PROFILE_COLUMNS {
             return Err(Error::InvalidReference);
         }
-        let occupied = u32::from_le_bytes(r.take());
+        let occupied = le_u32(bytes, 16);
+        let mut at = 20;
         let mut signature = Signature::empty(kind);
-        for p in signature.peak.iter_mut() {
-            *p = u16::from_le_bytes(r.take());
+        let mut k = 0;
+        while k < HALF {
+            signature.peak[k] = le_u16(bytes, at + 2 * k);
+            signature.asymmetry[k] = le_u16(bytes, at + 2 * (HALF + k)) as i16;
+            k += 1;
         }
-        for s in signature.asymmetry.iter_mut() {
-            *s = i16::from_le_bytes(r.take());
-        }
-        let mut profiles = heapless::Vec::new();
-        for i in 0..PROFILE_COLUMNS {
-            let theta_bytes = r.take::<2>();
-            let theta = u16::from_le_bytes(theta_bytes) as usize;
+        at += 4 * HALF;
+        let mut profiles = [const { Profile::EMPTY }; PROFILE_COLUMNS];
+        let mut i = 0;
+        while i < PROFILE_COLUMNS {
+            let theta = le_u16(bytes, at) as usize;
             let mut counts = [0u8; RHO];
-            for c in counts.iter_mut() {
-                *c = r.take::<1>()[0];
+            let mut b = 0;
+            while b < RHO {
+                counts[b] = byte(bytes, at + 2 + b);
+                b += 1;
             }
-            if i < count as usize {
+            if i < count {
                 // A stored column is a local maximum of D with D > 0.
-                if theta >= HALF || signature.peak(theta) == 0 {
+                if theta >= HALF || signature.peak[theta] == 0 {
                     return Err(Error::InvalidReference);
                 }
-                let _ = profiles.push(Profile { theta, counts });
-            } else if theta_bytes != [0, 0] || counts.iter().any(|&c| c != 0) {
+                profiles[i] = Profile { theta, counts };
+            } else if theta != 0 || !all_zero(&counts) {
                 // Unused slots are written as zeros.
                 return Err(Error::InvalidReference);
             }
+            at += 2 + RHO;
+            i += 1;
         }
         let mut rows = [[0u32; RW]; H];
-        for word in rows.iter_mut().flatten() {
-            *word = u32::from_le_bytes(r.take());
+        let mut r = 0;
+        while r < H {
+            let mut w = 0;
+            while w < RW {
+                rows[r][w] = le_u32(bytes, at);
+                at += 4;
+                w += 1;
+            }
+            r += 1;
         }
         let grid = Grid::from_words(rows);
-        if grid.words() != &rows
+        // `from_words` clears bits beyond W: a changed row held such bits.
+        if !same_words(grid.words(), &rows)
             || grid.occupied() != occupied
             || !signature_is_possible(&signature, occupied, W, H)
         {
@@ -239,6 +281,7 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
         Ok(Self {
             signature,
             profiles,
+            count: count as u8,
             occupied,
             grid,
         })
@@ -251,7 +294,7 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
 /// [`PeakKind::TwoBin`] (not computed), and `D(θ) ≤ min(occupied, bound)`
 /// with `bound` = [`max_votes_per_bin`] (single bin) or twice it (two bins):
 /// each column holds every occupied cell's vote once.
-fn signature_is_possible<const HALF: usize>(
+const fn signature_is_possible<const HALF: usize>(
     signature: &Signature<HALF>,
     occupied: u32,
     width: usize,
@@ -261,14 +304,25 @@ fn signature_is_possible<const HALF: usize>(
     let bound = match signature.kind {
         PeakKind::SingleBin => per_bin,
         PeakKind::TwoBin => 2 * per_bin,
-    }
-    .min(u64::from(occupied));
-    let asymmetry_ok = |&s: &i16| match signature.kind {
-        PeakKind::SingleBin => s != i16::MIN,
-        PeakKind::TwoBin => s == 0,
     };
-    signature.peaks().iter().all(|&d| u64::from(d) <= bound)
-        && signature.asymmetries().iter().all(asymmetry_ok)
+    let bound = if bound < occupied as u64 {
+        bound
+    } else {
+        occupied as u64
+    };
+    let mut k = 0;
+    while k < HALF {
+        let s = signature.asymmetry[k];
+        let asymmetry_ok = match signature.kind {
+            PeakKind::SingleBin => s != i16::MIN,
+            PeakKind::TwoBin => s == 0,
+        };
+        if signature.peak[k] as u64 > bound || !asymmetry_ok {
+            return false;
+        }
+        k += 1;
+    }
+    true
 }
 
 /// The [`PROFILE_COLUMNS`] strongest local maxima of `D`, at least 10° apart
@@ -314,10 +368,68 @@ fn kind_byte(kind: PeakKind) -> u8 {
     }
 }
 
-fn fnv1a(bytes: &[u8]) -> u32 {
-    bytes.iter().fold(0x811c_9dc5u32, |h, &b| {
-        (h ^ u32::from(b)).wrapping_mul(0x0100_0193)
-    })
+/// FNV-1a of the first `end` bytes (fewer if `bytes` is shorter).
+const fn fnv1a(bytes: &[u8], end: usize) -> u32 {
+    let mut h = 0x811c_9dc5u32;
+    let mut i = 0;
+    while i < end && i < bytes.len() {
+        h = (h ^ bytes[i] as u32).wrapping_mul(0x0100_0193);
+        i += 1;
+    }
+    h
+}
+
+/// Byte `at` of `bytes`; 0 past the end (the length is checked up front).
+const fn byte(bytes: &[u8], at: usize) -> u8 {
+    if at < bytes.len() {
+        bytes[at]
+    } else {
+        0
+    }
+}
+
+/// The little-endian `u16` at byte `at`.
+const fn le_u16(bytes: &[u8], at: usize) -> u16 {
+    u16::from_le_bytes([byte(bytes, at), byte(bytes, at + 1)])
+}
+
+/// The little-endian `u32` at byte `at`.
+const fn le_u32(bytes: &[u8], at: usize) -> u32 {
+    u32::from_le_bytes([
+        byte(bytes, at),
+        byte(bytes, at + 1),
+        byte(bytes, at + 2),
+        byte(bytes, at + 3),
+    ])
+}
+
+const fn all_zero(values: &[u8]) -> bool {
+    let mut i = 0;
+    while i < values.len() {
+        if values[i] != 0 {
+            return false;
+        }
+        i += 1;
+    }
+    true
+}
+
+const fn same_words<const RW: usize, const H: usize>(
+    a: &[[u32; RW]; H],
+    b: &[[u32; RW]; H],
+) -> bool {
+    let mut r = 0;
+    while r < H {
+        let mut w = 0;
+        while w < RW {
+            if a[r][w] != b[r][w] {
+                return false;
+            }
+            w += 1;
+        }
+        r += 1;
+    }
+    true
 }
 
 struct Writer<'a> {
@@ -338,23 +450,6 @@ impl Writer<'_> {
             dst.fill(0);
         }
         self.at += n;
-    }
-}
-
-struct Reader<'a> {
-    bytes: &'a [u8],
-    at: usize,
-}
-
-impl Reader<'_> {
-    /// The next `K` bytes; zeros past the end (lengths are checked up front).
-    fn take<const K: usize>(&mut self) -> [u8; K] {
-        let mut out = [0u8; K];
-        if let Some(src) = self.bytes.get(self.at..self.at + K) {
-            out.copy_from_slice(src);
-        }
-        self.at += K;
-        out
     }
 }
 
@@ -385,7 +480,7 @@ mod tests {
     /// Recomputes the checksum after an edit, as `to_bytes` writes it.
     fn resum(bytes: &mut [u8]) {
         let end = bytes.len() - 4;
-        let sum = fnv1a(&bytes[..end]);
+        let sum = fnv1a(bytes, end);
         bytes[end..].copy_from_slice(&sum.to_le_bytes());
     }
 

@@ -16,7 +16,6 @@ use crate::angle::Angle;
 use crate::correlation::{Correlation, Peak};
 use crate::direction::{self, HalfTurn, HalfTurnTest};
 use crate::grid::Grid;
-use crate::pose::pyramid::Pyramid;
 use crate::pose::scale::ScaleRange;
 use crate::pose::Pose;
 use crate::reference::Reference;
@@ -74,7 +73,6 @@ pub struct Estimator<
     verify: bool,
     columns: [Column<RHO>; 2],
     current: Signature<HALF>,
-    pyramid: Pyramid<W, H, PW>,
 }
 
 impl<
@@ -98,7 +96,6 @@ impl<
             verify: true,
             columns: [[0; RHO]; 2],
             current: Signature::empty(mode.peak_kind()),
-            pyramid: Pyramid::new(),
         }
     }
 

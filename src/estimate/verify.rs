@@ -12,6 +12,7 @@ use crate::direction::HalfTurnTest;
 use crate::grid::Grid;
 use crate::math::sort_descending;
 use crate::pose::icp::refine;
+use crate::pose::pyramid::Pyramid;
 use crate::pose::search::{Aligner, Placement};
 use crate::pose::Pose;
 use crate::reference::Reference;
@@ -54,7 +55,10 @@ impl<
             test,
             hint,
         } = found;
-        self.pyramid.build(reference.grid());
+        // Built here, on the stack, so that estimates without verification
+        // do not carry it (`4 · PW` bytes: 752 at 128²).
+        let mut pyramid = Pyramid::<W, H, PW>::new();
+        pyramid.build(reference.grid());
         let max_shift = self.max_shift() as i32;
         // The scale the profile test found (1 without a scale search) holds
         // for every candidate rotation.
@@ -63,7 +67,7 @@ impl<
         let separation = Angle::from_steps_q16(((N / 72).max(2) as i64) << 16, N);
         let mut seeds: Vec<(Placement, Score), SEEDS> = Vec::new();
         let (winner, points, near, alpha, u_q8) = {
-            let mut aligner = Aligner::new(reference.grid(), &self.pyramid, grid, inv_scale_q16);
+            let mut aligner = Aligner::new(reference.grid(), &pyramid, grid, inv_scale_q16);
             // 1. Both halves of the strongest distinct peaks, each with the
             //    best translation over the whole window.
             let mut peaks: Vec<&Peak, VERIFY_PEAKS> = Vec::new();

@@ -28,7 +28,9 @@ impl<const W: usize, const H: usize, const PW: usize> Pyramid<W, H, PW> {
         Self::LAYOUT.get(k).map_or(PW, |l| l.0)
     }
 
-    /// Rebuilds every level from `grid` (`≈ W·H/16` word operations).
+    /// Rebuilds every level from `grid` (`≈ W·H/16` word operations). Not
+    /// inlined: inlined into the verification it doubled its code.
+    #[inline(never)]
     pub(crate) fn build<const RW: usize>(&mut self, grid: &Grid<W, H, RW>) {
         let rows = grid.words();
         let (first, rest) = self.words.split_at_mut(Self::offset(2).min(PW));

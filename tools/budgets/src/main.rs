@@ -270,10 +270,13 @@ fn table_page(table: &str) -> String {
          stack pointer at the call. The grids are not counted (they are inputs, here in flash).\n\
          - Verification table: the same estimate with the verification (the default) and with \
          `with_verification(false)`; *extra instr.* is the difference. *verification state*: the \
-         estimator's pyramid (`4 · pyramid_words(W, H)` bytes) and the grid the reference keeps \
-         (`size_of` a grid), part of the state whether the verification runs or not. *extra RAM*: \
-         that state plus the verified estimate's peak stack minus the unverified one's. *overlap*: \
-         `Estimate::overlap` of the verified estimate.\n\
+         grid the reference keeps (`size_of` a grid), part of the reference whether the \
+         verification runs or not (the verification builds its pyramid, `4 · pyramid_words(W, H)` \
+         bytes, on its own stack). *extra RAM*: that state plus the verified estimate's peak stack \
+         minus the unverified one's. *overlap*: `Estimate::overlap` of the verified estimate. \
+         *reference in flash*: without the verification and with the reference a `static` parsed \
+         at compile time (`Reference::from_bytes` is a `const fn`; `examples/robot_loop.rs` runs \
+         so), the RAM is `size_of` the estimator plus the unverified estimate's peak stack.\n\
          - *static RAM*: `.data + .bss` of the whole firmware (logger, runtime); the library has none. \
          *library flash*: flash of the firmware minus the same firmware built without calling the \
          library (`HH_BENCH_BASELINE=1`) minus the two grids.\n\
