@@ -12,7 +12,7 @@
 //! the exact ρ lies that close to a bin edge.
 
 use crate::config::{check_grid, rho_bins};
-use crate::grid::Grid;
+use crate::grid::{CellBounds, Grid};
 use crate::trig::TrigTable;
 
 /// Compile-time check of a column vote's sizes: the grid's (`RW`), an even
@@ -87,6 +87,29 @@ pub fn vote_column<
         }
         y2 -= 2;
     }
+}
+
+/// The bins that the votes of [`vote_column`] (or [`vote_column_pair`]) for
+/// column `k` can reach from cells inside `bounds`, `(first, last)`
+/// inclusive: the bins of the box's corners, since a vote's Q16 position is
+/// linear in the cell's coordinates and computed exactly (the same integers
+/// as the vote loops), and the bin is monotonic in the position. Every bin
+/// outside stays untouched by those votes.
+pub(crate) fn bin_span<const W: usize, const H: usize, const N: usize, const RHO: usize>(
+    bounds: &CellBounds,
+    k: usize,
+) -> (usize, usize) {
+    let table = &TrigTable::<N>::TABLE;
+    let (c, s) = (table.cos(k), table.sin(k));
+    // Doubled coordinates of the box's edges (as in `vote_column`).
+    let x = |col: usize| 2 * col as i32 - (W as i32 - 1);
+    let y = |row: usize| (H as i32 - 1) - 2 * row as i32;
+    let (x0, x1) = (x(bounds.first_col) * c, x(bounds.last_col) * c);
+    let (y0, y1) = (y(bounds.first_row) * s, y(bounds.last_row) * s);
+    let low = vote_offset(RHO) + x0.min(x1) + y0.min(y1);
+    let high = vote_offset(RHO) + x0.max(x1) + y0.max(y1);
+    let mask = RHO - 1;
+    ((low >> 16) as usize & mask, (high >> 16) as usize & mask)
 }
 
 /// Fraction bits of a split vote ([`vote_column_split`]): each occupied cell
@@ -172,17 +195,40 @@ pub fn vote_column_split<
 /// words are shared. Same result as two calls of [`vote_column`] at `k` and
 /// `k + 1` (taken modulo `N`, so any `k`, `usize::MAX` included, is valid).
 ///
-/// An empty word costs a load and a branch: the Q16 positions of a word are
-/// computed from its row and index only when it holds a cell (instead of a
-/// running sum updated on every word). At 128², `N_THETA` = 360 the loop
-/// takes 12.2 instructions per vote on Cortex-M4F and 23.2 on Cortex-M0
-/// (`budgets/TABLE.md`, *vote loop*).
+/// An empty word costs a load and a branch: the Q16
+/// positions of a word are computed from its row and index only when it
+/// holds a cell. The cells of a word are taken highest first with one
+/// count-leading-zeros where the target has one (Cortex-M3/M4/M7, hosts), and
+/// lowest first with a de Bruijn multiply and a 32-entry table elsewhere
+/// (Cortex-M0/M0+, RV32 without Zbb, where `trailing_zeros` is a long
+/// sequence). At 128², `N_THETA` = 360 the loop takes 12.2 instructions per
+/// vote on Cortex-M4F and 23.2 on Cortex-M0 (`budgets/TABLE.md`, *vote loop*).
 pub fn vote_column_pair<
     const W: usize,
     const H: usize,
     const RW: usize,
     const N: usize,
     const RHO: usize,
+>(
+    grid: &Grid<W, H, RW>,
+    k: usize,
+    first: &mut Column<RHO>,
+    second: &mut Column<RHO>,
+) {
+    vote_pair::<W, H, RW, N, RHO, FAST_CLZ>(grid, k, first, second);
+}
+
+/// [`vote_column_pair`] taking the cells of a word highest first with
+/// `leading_zeros` (`CLZ`) or lowest first with [`lowest_bit_index`]: the
+/// same votes either way (both are tested on the host).
+#[inline(always)]
+fn vote_pair<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const RHO: usize,
+    const CLZ: bool,
 >(
     grid: &Grid<W, H, RW>,
     k: usize,
@@ -196,32 +242,87 @@ pub fn vote_column_pair<
     let (c2, s2) = (table.cos(k % N + 1), table.sin(k % N + 1));
     let (step1, step2) = (2 * c1, 2 * c2);
     let mask = RHO - 1;
+    // With CLZ the cells come highest first: positions are taken from the
+    // word's last column, `last − z·step` for the cell `31 − z` (the same
+    // integers as `first + (31 − z)·step`).
+    let from = if CLZ { 31 } else { 0 };
+    let start1 = vote_offset(RHO) - (W as i32 - 1) * c1 + from * step1;
+    let start2 = vote_offset(RHO) - (W as i32 - 1) * c2 + from * step2;
     let mut y2 = H as i32 - 1;
-    let start1 = vote_offset(RHO) - (W as i32 - 1) * c1;
-    let start2 = vote_offset(RHO) - (W as i32 - 1) * c2;
     for row in grid.words() {
         let row1 = start1 + y2 * s1;
         let row2 = start2 + y2 * s2;
         for (j, &word) in row.iter().enumerate() {
-            if word == 0 {
-                continue;
-            }
-            // The same values as the running sums `row + 32·j·step`,
-            // computed only for words that hold a cell.
-            let base1 = row1 + 32 * j as i32 * step1;
-            let base2 = row2 + 32 * j as i32 * step2;
-            let mut bits = word;
-            while bits != 0 {
-                let col = bits.trailing_zeros() as i32;
-                let bin1 = ((base1 + col * step1) >> 16) as usize & mask;
-                let bin2 = ((base2 + col * step2) >> 16) as usize & mask;
-                first[bin1] = first[bin1].wrapping_add(1);
-                second[bin2] = second[bin2].wrapping_add(1);
-                bits &= bits - 1;
+            let j = j as i32;
+            if word != 0 {
+                // The same values as the running sums `row + 32·j·step`,
+                // computed only for words that hold a cell.
+                let base1 = row1 + 32 * j * step1;
+                let base2 = row2 + 32 * j * step2;
+                if CLZ {
+                    let mut bits = word;
+                    while bits != 0 {
+                        let z = bits.leading_zeros();
+                        let bin1 = ((base1 - z as i32 * step1) >> 16) as usize & mask;
+                        let bin2 = ((base2 - z as i32 * step2) >> 16) as usize & mask;
+                        first[bin1] = first[bin1].wrapping_add(1);
+                        second[bin2] = second[bin2].wrapping_add(1);
+                        bits ^= HIGHEST_BIT.wrapping_shr(z);
+                    }
+                } else {
+                    let mut bits = word;
+                    while bits != 0 {
+                        let lowest = bits & bits.wrapping_neg();
+                        let col = lowest_bit_index(lowest) as i32;
+                        let bin1 = ((base1 + col * step1) >> 16) as usize & mask;
+                        let bin2 = ((base2 + col * step2) >> 16) as usize & mask;
+                        first[bin1] = first[bin1].wrapping_add(1);
+                        second[bin2] = second[bin2].wrapping_add(1);
+                        bits ^= lowest;
+                    }
+                }
             }
         }
         y2 -= 2;
     }
+}
+
+/// Whether the target counts leading zeros in one instruction. Not on
+/// ARMv6-M (Cortex-M0/M0+/M1: the only Arm profile without atomic
+/// read-modify-write, hence the test) nor on RV32 without Zbb, where
+/// `leading_zeros` and `trailing_zeros` are long sequences or calls: there
+/// the vote loop isolates the lowest set bit and looks it up
+/// ([`lowest_bit_index`]).
+const FAST_CLZ: bool = !cfg!(any(
+    all(target_arch = "arm", not(target_has_atomic = "ptr")),
+    target_arch = "riscv32"
+));
+
+/// Bit 31.
+const HIGHEST_BIT: u32 = 1 << 31;
+
+/// de Bruijn sequence B(2, 5): the top five bits of `DE_BRUIJN << i` differ
+/// for every `i ∈ [0, 32)`.
+const DE_BRUIJN: u32 = 0x077C_B531;
+
+/// `i` for the top five bits of `DE_BRUIJN << i`.
+const DE_BRUIJN_INDEX: [u8; 32] = {
+    let mut index = [0u8; 32];
+    let mut i = 0;
+    while i < 32 {
+        index[((DE_BRUIJN << i) >> 27) as usize] = i as u8;
+        i += 1;
+    }
+    index
+};
+
+/// The index `i ∈ [0, 32)` of a single set bit, `lowest = 1 << i`, by a
+/// multiply and a table look-up (no CLZ needed). For any other `lowest`
+/// (zero or several bits) the result is some value in `[0, 32)`.
+#[inline(always)]
+fn lowest_bit_index(lowest: u32) -> u32 {
+    // The shift leaves five bits: the index is always in range.
+    u32::from(DE_BRUIJN_INDEX[(lowest.wrapping_mul(DE_BRUIJN) >> 27) as usize])
 }
 
 /// The full accumulator over θ ∈ [0, π) (`HALF` columns of `RHO` bins), with
@@ -349,6 +450,79 @@ mod tests {
         c[4] = 4;
         mirror(&mut c);
         assert_eq!(c, [0, 0, 0, 0, 4, 3, 0, 1]);
+    }
+
+    /// The de Bruijn look-up against `trailing_zeros`: every single bit, and
+    /// the lowest bit of random words.
+    #[test]
+    fn lowest_bit_index_matches_trailing_zeros() {
+        for i in 0..32 {
+            assert_eq!(lowest_bit_index(1 << i), i);
+        }
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        for _ in 0..10_000 {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let word = (state >> 32) as u32 >> (state % 32);
+            if word != 0 {
+                let lowest = word & word.wrapping_neg();
+                assert_eq!(lowest_bit_index(lowest), word.trailing_zeros(), "{word:#x}");
+            }
+        }
+    }
+
+    /// Both bit orders of the pair vote give the votes of two single
+    /// columns, on random grids (sparse to full, a width that is not a
+    /// multiple of 32) and at every `k`.
+    #[test]
+    fn vote_pair_both_bit_orders_equal_single_columns() {
+        type G = Grid<45, 13, 2>;
+        const RHO: usize = crate::config::rho_bins(45, 13);
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        for density in [1u64, 8, 32, 64] {
+            let mut words = [[0u32; 2]; 13];
+            for w in words.iter_mut().flatten() {
+                for bit in 0..32 {
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    if (state >> 58) < density {
+                        *w |= 1 << bit;
+                    }
+                }
+            }
+            let g = G::from_words(words);
+            for k in 0..24 {
+                let (mut a, mut b) = ([0u16; RHO], [0u16; RHO]);
+                vote_column::<45, 13, 2, 24, RHO>(&g, k, &mut a);
+                vote_column::<45, 13, 2, 24, RHO>(&g, k + 1, &mut b);
+                let (mut high1, mut high2) = ([0u16; RHO], [0u16; RHO]);
+                vote_pair::<45, 13, 2, 24, RHO, true>(&g, k, &mut high1, &mut high2);
+                let (mut low1, mut low2) = ([0u16; RHO], [0u16; RHO]);
+                vote_pair::<45, 13, 2, 24, RHO, false>(&g, k, &mut low1, &mut low2);
+                assert_eq!((high1, high2), (a, b), "density {density}, k {k}");
+                assert_eq!((low1, low2), (a, b), "density {density}, k {k}");
+            }
+        }
+    }
+
+    /// Every vote of a column lands inside `bin_span` of the grid's bounds.
+    #[test]
+    fn bin_span_holds_every_vote() {
+        const RHO: usize = crate::config::rho_bins(45, 13);
+        let mut g = Grid::<45, 13, 2>::new();
+        g.set_cells([(3, 2), (40, 9), (17, 5), (22, 11)]).unwrap();
+        let bounds = g.occupied_bounds().unwrap();
+        for k in 0..36 {
+            let mut column = [0u16; RHO];
+            vote_column::<45, 13, 2, 36, RHO>(&g, k, &mut column);
+            let (low, high) = bin_span::<45, 13, 36, RHO>(&bounds, k);
+            assert!(low <= high);
+            for (b, &v) in column.iter().enumerate() {
+                assert!(v == 0 || (low..=high).contains(&b), "k {k} bin {b}");
+            }
+        }
     }
 
     /// `k + 1` never overflows: the pair at `usize::MAX` is the columns
