@@ -190,18 +190,22 @@ pub fn vote_column_split<
     }
 }
 
-/// Votes two adjacent columns, `k` into `first` and `k + 1` into `second`, in
-/// one pass over the grid: the bit extraction and the scan over the grid's
-/// words are shared. Same result as two calls of [`vote_column`] at `k` and
-/// `k + 1` (taken modulo `N`, so any `k`, `usize::MAX` included, is valid).
+/// Votes two adjacent columns, `k` into `columns[0]` and `k + 1` into
+/// `columns[1]`, in one pass over the grid: the bit extraction and the scan
+/// over the grid's words are shared. Same result as two calls of
+/// [`vote_column`] at `k` and `k + 1` (taken modulo `N`, so any `k`,
+/// `usize::MAX` included, is valid).
 ///
-/// An empty word costs a load and a branch: the Q16
-/// positions of a word are computed from its row and index only when it
-/// holds a cell. The cells of a word are taken highest first with one
-/// count-leading-zeros where the target has one (Cortex-M3/M4/M7, hosts), and
-/// lowest first with a de Bruijn multiply and a 32-entry table elsewhere
-/// (Cortex-M0/M0+, RV32 without Zbb, where `trailing_zeros` is a long
-/// sequence). At 128², `N_THETA` = 360 the loop takes 12.2 instructions per
+/// The two columns are one contiguous array: the second column's offset is
+/// folded into its positions, so one pointer and one mask serve both (a
+/// register fewer in the inner loop, which matters on the Cortex-M0). An
+/// empty word costs a load and a branch: the Q16 positions of a word are
+/// computed from its row and index only when it holds a cell. The cells of a
+/// word are found with `trailing_zeros` where the target counts zeros in
+/// an instruction or two (Cortex-M3/M4/M7: RBIT + CLZ; hosts), and with a
+/// de Bruijn multiply and a 32-entry table look-up elsewhere (Cortex-M0/M0+,
+/// RV32 without Zbb, where `trailing_zeros` is a long sequence with a zero
+/// test). At 128², `N_THETA` = 360 the loop takes 12.2 instructions per
 /// vote on Cortex-M4F and 23.2 on Cortex-M0 (`budgets/TABLE.md`, *vote loop*).
 pub fn vote_column_pair<
     const W: usize,
@@ -212,15 +216,14 @@ pub fn vote_column_pair<
 >(
     grid: &Grid<W, H, RW>,
     k: usize,
-    first: &mut Column<RHO>,
-    second: &mut Column<RHO>,
+    columns: &mut [Column<RHO>; 2],
 ) {
-    vote_pair::<W, H, RW, N, RHO, FAST_CLZ>(grid, k, first, second);
+    vote_pair::<W, H, RW, N, RHO, FAST_CTZ>(grid, k, columns);
 }
 
-/// [`vote_column_pair`] taking the cells of a word highest first with
-/// `leading_zeros` (`CLZ`) or lowest first with [`lowest_bit_index`]: the
-/// same votes either way (both are tested on the host).
+/// [`vote_column_pair`] finding the cells of a word with `trailing_zeros`
+/// (`CTZ`) or with [`lowest_bit_index`]: the same votes either way (both
+/// are tested on the host).
 #[inline(always)]
 fn vote_pair<
     const W: usize,
@@ -228,12 +231,11 @@ fn vote_pair<
     const RW: usize,
     const N: usize,
     const RHO: usize,
-    const CLZ: bool,
+    const CTZ: bool,
 >(
     grid: &Grid<W, H, RW>,
     k: usize,
-    first: &mut Column<RHO>,
-    second: &mut Column<RHO>,
+    columns: &mut [Column<RHO>; 2],
 ) {
     const { check_column::<W, H, RW, N, RHO>() };
     let table = &TrigTable::<N>::TABLE;
@@ -241,65 +243,59 @@ fn vote_pair<
     // `k mod N + 1`: the same column as `k + 1`, without its overflow at usize::MAX.
     let (c2, s2) = (table.cos(k % N + 1), table.sin(k % N + 1));
     let (step1, step2) = (2 * c1, 2 * c2);
-    let mask = RHO - 1;
-    // With CLZ the cells come highest first: positions are taken from the
-    // word's last column, `last − z·step` for the cell `31 − z` (the same
-    // integers as `first + (31 − z)·step`).
-    let from = if CLZ { 31 } else { 0 };
-    let start1 = vote_offset(RHO) - (W as i32 - 1) * c1 + from * step1;
-    let start2 = vote_offset(RHO) - (W as i32 - 1) * c2 + from * step2;
-    let mut y2 = H as i32 - 1;
+    // Both columns as one array of 2·RHO bins: the second column's votes
+    // are offset by RHO bins. Every position stays in its own column's
+    // range (as in `vote_column`), so the mask never changes a bin.
+    let bins = columns.as_flattened_mut();
+    let mask = 2 * RHO - 1;
+    let second = (RHO as i32) << 16;
+    // Q16 positions of column 0 of the current row, updated by −2·sin per
+    // row (y2 = H − 1 − 2·row).
+    let mut row1 = vote_offset(RHO) - (W as i32 - 1) * c1 + (H as i32 - 1) * s1;
+    let mut row2 = second + vote_offset(RHO) - (W as i32 - 1) * c2 + (H as i32 - 1) * s2;
     for row in grid.words() {
-        let row1 = start1 + y2 * s1;
-        let row2 = start2 + y2 * s2;
         for (j, &word) in row.iter().enumerate() {
-            let j = j as i32;
             if word != 0 {
                 // The same values as the running sums `row + 32·j·step`,
                 // computed only for words that hold a cell.
-                let base1 = row1 + 32 * j * step1;
-                let base2 = row2 + 32 * j * step2;
-                if CLZ {
-                    let mut bits = word;
-                    while bits != 0 {
-                        let z = bits.leading_zeros();
-                        let bin1 = ((base1 - z as i32 * step1) >> 16) as usize & mask;
-                        let bin2 = ((base2 - z as i32 * step2) >> 16) as usize & mask;
-                        first[bin1] = first[bin1].wrapping_add(1);
-                        second[bin2] = second[bin2].wrapping_add(1);
-                        bits ^= HIGHEST_BIT.wrapping_shr(z);
-                    }
-                } else {
-                    let mut bits = word;
-                    while bits != 0 {
+                let base1 = row1 + 32 * j as i32 * step1;
+                let base2 = row2 + 32 * j as i32 * step2;
+                let mut bits = word;
+                while bits != 0 {
+                    let (col, rest) = if CTZ {
+                        (bits.trailing_zeros(), bits & (bits - 1))
+                    } else {
                         let lowest = bits & bits.wrapping_neg();
-                        let col = lowest_bit_index(lowest) as i32;
-                        let bin1 = ((base1 + col * step1) >> 16) as usize & mask;
-                        let bin2 = ((base2 + col * step2) >> 16) as usize & mask;
-                        first[bin1] = first[bin1].wrapping_add(1);
-                        second[bin2] = second[bin2].wrapping_add(1);
-                        bits ^= lowest;
+                        (lowest_bit_index(lowest), bits ^ lowest)
+                    };
+                    let col = col as i32;
+                    let bin1 = ((base1 + col * step1) >> 16) as usize & mask;
+                    let bin2 = ((base2 + col * step2) >> 16) as usize & mask;
+                    if let Some(v) = bins.get_mut(bin1) {
+                        *v = v.wrapping_add(1);
                     }
+                    if let Some(v) = bins.get_mut(bin2) {
+                        *v = v.wrapping_add(1);
+                    }
+                    bits = rest;
                 }
             }
         }
-        y2 -= 2;
+        row1 -= 2 * s1;
+        row2 -= 2 * s2;
     }
 }
 
-/// Whether the target counts leading zeros in one instruction. Not on
-/// ARMv6-M (Cortex-M0/M0+/M1: the only Arm profile without atomic
-/// read-modify-write, hence the test) nor on RV32 without Zbb, where
-/// `leading_zeros` and `trailing_zeros` are long sequences or calls: there
+/// Whether `trailing_zeros` is one or two instructions (RBIT + CLZ on
+/// ARMv7-M, TZCNT/BSF on hosts). Not on ARMv6-M (Cortex-M0/M0+/M1: the only
+/// Arm profile without atomic read-modify-write, hence the test) nor on
+/// RV32 without Zbb, where it is a long sequence with a zero test: there
 /// the vote loop isolates the lowest set bit and looks it up
 /// ([`lowest_bit_index`]).
-const FAST_CLZ: bool = !cfg!(any(
+const FAST_CTZ: bool = !cfg!(any(
     all(target_arch = "arm", not(target_has_atomic = "ptr")),
     target_arch = "riscv32"
 ));
-
-/// Bit 31.
-const HIGHEST_BIT: u32 = 1 << 31;
 
 /// de Bruijn sequence B(2, 5): the top five bits of `DE_BRUIJN << i` differ
 /// for every `i ∈ [0, 32)`.
@@ -472,7 +468,7 @@ mod tests {
         }
     }
 
-    /// Both bit orders of the pair vote give the votes of two single
+    /// Both bit extractions of the pair vote give the votes of two single
     /// columns, on random grids (sparse to full, a width that is not a
     /// multiple of 32) and at every `k`.
     #[test]
@@ -497,12 +493,12 @@ mod tests {
                 let (mut a, mut b) = ([0u16; RHO], [0u16; RHO]);
                 vote_column::<45, 13, 2, 24, RHO>(&g, k, &mut a);
                 vote_column::<45, 13, 2, 24, RHO>(&g, k + 1, &mut b);
-                let (mut high1, mut high2) = ([0u16; RHO], [0u16; RHO]);
-                vote_pair::<45, 13, 2, 24, RHO, true>(&g, k, &mut high1, &mut high2);
-                let (mut low1, mut low2) = ([0u16; RHO], [0u16; RHO]);
-                vote_pair::<45, 13, 2, 24, RHO, false>(&g, k, &mut low1, &mut low2);
-                assert_eq!((high1, high2), (a, b), "density {density}, k {k}");
-                assert_eq!((low1, low2), (a, b), "density {density}, k {k}");
+                let mut native = [[0u16; RHO]; 2];
+                vote_pair::<45, 13, 2, 24, RHO, true>(&g, k, &mut native);
+                let mut looked_up = [[0u16; RHO]; 2];
+                vote_pair::<45, 13, 2, 24, RHO, false>(&g, k, &mut looked_up);
+                assert_eq!(native, [a, b], "density {density}, k {k}");
+                assert_eq!(looked_up, [a, b], "density {density}, k {k}");
             }
         }
     }
@@ -532,12 +528,12 @@ mod tests {
         let mut g = Grid::<8, 4, 1>::new();
         g.set_cells([(0, 0), (3, 1), (7, 3), (5, 2)]).unwrap();
         for k in [usize::MAX, usize::MAX - 1, 15, 0] {
-            let (mut first, mut second) = ([0u16; 16], [0u16; 16]);
-            vote_column_pair::<8, 4, 1, 16, 16>(&g, k, &mut first, &mut second);
+            let mut pair = [[0u16; 16]; 2];
+            vote_column_pair::<8, 4, 1, 16, 16>(&g, k, &mut pair);
             let (mut a, mut b) = ([0u16; 16], [0u16; 16]);
             vote_column::<8, 4, 1, 16, 16>(&g, k % 16, &mut a);
             vote_column::<8, 4, 1, 16, 16>(&g, k % 16 + 1, &mut b);
-            assert_eq!((first, second), (a, b), "{k}");
+            assert_eq!(pair, [a, b], "{k}");
         }
     }
 }

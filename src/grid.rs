@@ -280,28 +280,32 @@ mod tests {
             let mut g = Grid::<70, 9, 3>::new();
             let cells = (state % 6) as usize;
             for _ in 0..cells {
-                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 let col = (state >> 33) as usize % 70;
                 let row = (state >> 45) as usize % 9;
                 g.set(col, row).unwrap();
             }
             state = state.wrapping_mul(6364136223846793005).wrapping_add(1);
-            let expected = g.occupied_cells().fold(None, |b: Option<CellBounds>, (c, r)| {
-                Some(match b {
-                    None => CellBounds {
-                        first_col: c,
-                        last_col: c,
-                        first_row: r,
-                        last_row: r,
-                    },
-                    Some(b) => CellBounds {
-                        first_col: b.first_col.min(c),
-                        last_col: b.last_col.max(c),
-                        first_row: b.first_row.min(r),
-                        last_row: b.last_row.max(r),
-                    },
-                })
-            });
+            let expected = g
+                .occupied_cells()
+                .fold(None, |b: Option<CellBounds>, (c, r)| {
+                    Some(match b {
+                        None => CellBounds {
+                            first_col: c,
+                            last_col: c,
+                            first_row: r,
+                            last_row: r,
+                        },
+                        Some(b) => CellBounds {
+                            first_col: b.first_col.min(c),
+                            last_col: b.last_col.max(c),
+                            first_row: b.first_row.min(r),
+                            last_row: b.last_row.max(r),
+                        },
+                    })
+                });
             assert_eq!(g.occupied_bounds(), expected);
         }
     }

@@ -193,9 +193,7 @@ impl<const HALF: usize> Signature<HALF> {
     ) {
         const { crate::config::check_config(W, H, RW, N, HALF, RHO) };
         self.kind = kind;
-        let [first, second] = columns;
-        first.fill(0);
-        second.fill(0);
+        columns.as_flattened_mut().fill(0);
         let Some(bounds) = grid.occupied_bounds() else {
             self.peak.fill(0);
             self.asymmetry.fill(0);
@@ -213,12 +211,14 @@ impl<const HALF: usize> Signature<HALF> {
         };
         let mut k = 0;
         while k + 1 < HALF {
-            vote_column_pair::<W, H, RW, N, RHO>(grid, k, first, second);
+            vote_column_pair::<W, H, RW, N, RHO>(grid, k, columns);
+            let [first, second] = columns;
             take(k, first);
             take(k + 1, second);
             k += 2;
         }
         if k < HALF {
+            let [first, _] = columns;
             vote_column::<W, H, RW, N, RHO>(grid, k, first);
             take(k, first);
         }
@@ -332,7 +332,11 @@ mod tests {
             let high = (low + next() % 16).min(15);
             let mut col = [0u16; 16];
             for b in low..=high {
-                col[b] = if next() % 3 == 0 { 0 } else { (next() % 300) as u16 };
+                col[b] = if next() % 3 == 0 {
+                    0
+                } else {
+                    (next() % 300) as u16
+                };
             }
             for kind in [PeakKind::SingleBin, PeakKind::TwoBin] {
                 let expected = ColumnStats::of(&col, kind);
