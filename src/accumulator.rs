@@ -27,6 +27,8 @@ const fn check_column<
 >() {
     check_grid(W, H, RW);
     assert!(N >= 8 && N % 2 == 0, "N_THETA must be even and at least 8");
+    // `vote_column_pair` scales positions by 2^(16 − log2(2·RHO)).
+    assert!(RHO <= 1 << 15, "RHO too large for the pair vote's positions");
     assert!(
         RHO == rho_bins(W, H),
         "RHO must equal hough_heading::config::rho_bins(W, H)"
@@ -203,9 +205,9 @@ pub fn vote_column_split<
 /// computed from its row and index only when it holds a cell. The cells of a
 /// word are found with `trailing_zeros` where the target counts zeros in
 /// an instruction or two (Cortex-M3/M4/M7: RBIT + CLZ; hosts), and with a
-/// de Bruijn multiply and a 32-entry table look-up elsewhere (Cortex-M0/M0+,
-/// RV32 without Zbb, where `trailing_zeros` is a long sequence with a zero
-/// test). At 128², `N_THETA` = 360 the loop takes 12.2 instructions per
+/// multiply and a 32-entry table look-up elsewhere (Cortex-M0/M0+, RV32
+/// without Zbb, where `trailing_zeros` is a long sequence with a zero
+/// test). The bin is the top bits of a scaled position: one shift, no mask. At 128², `N_THETA` = 360 the loop takes 12.2 instructions per
 /// vote on Cortex-M4F and 23.2 on Cortex-M0 (`budgets/TABLE.md`, *vote loop*).
 pub fn vote_column_pair<
     const W: usize,
@@ -242,47 +244,55 @@ fn vote_pair<
     let (c1, s1) = (table.cos(k), table.sin(k));
     // `k mod N + 1`: the same column as `k + 1`, without its overflow at usize::MAX.
     let (c2, s2) = (table.cos(k % N + 1), table.sin(k % N + 1));
-    let (step1, step2) = (2 * c1, 2 * c2);
-    // Both columns as one array of 2·RHO bins: the second column's votes
-    // are offset by RHO bins. Every position stays in its own column's
-    // range (as in `vote_column`), so the mask never changes a bin.
+    // Both columns as one array of 2·RHO = 2^BITS bins, the second
+    // column's votes offset by RHO bins. Positions are Q16 scaled by
+    // 2^(16 − BITS), so that the bin is the top BITS bits of a u32: one
+    // shift, no mask, and an index the compiler knows is in range. The
+    // wrapping arithmetic is exact modulo 2³², which gives the masked bin of
+    // `vote_column` (every position is in its column's range anyway).
     let bins = columns.as_flattened_mut();
-    let mask = 2 * RHO - 1;
-    let second = (RHO as i32) << 16;
-    // Q16 positions of column 0 of the current row, updated by −2·sin per
-    // row (y2 = H − 1 − 2·row).
-    let mut row1 = vote_offset(RHO) - (W as i32 - 1) * c1 + (H as i32 - 1) * s1;
-    let mut row2 = second + vote_offset(RHO) - (W as i32 - 1) * c2 + (H as i32 - 1) * s2;
+    let bits_of_bin = (2 * RHO).trailing_zeros();
+    let scale = 16 - bits_of_bin;
+    let q = |v: i32| (v as u32) << scale;
+    let (step1, step2) = (q(2 * c1), q(2 * c2));
+    let second = q((RHO as i32) << 16);
+    // Positions of column 0 of the current row, updated by −2·sin per row
+    // (y2 = H − 1 − 2·row).
+    let mut row1 = q(vote_offset(RHO) - (W as i32 - 1) * c1 + (H as i32 - 1) * s1);
+    let mut row2 = second.wrapping_add(q(
+        vote_offset(RHO) - (W as i32 - 1) * c2 + (H as i32 - 1) * s2
+    ));
+    let (down1, down2) = (q(2 * s1), q(2 * s2));
+    let shift = 32 - bits_of_bin;
     for row in grid.words() {
         for (j, &word) in row.iter().enumerate() {
             if word != 0 {
                 // The same values as the running sums `row + 32·j·step`,
                 // computed only for words that hold a cell.
-                let base1 = row1 + 32 * j as i32 * step1;
-                let base2 = row2 + 32 * j as i32 * step2;
+                let j = 32 * j as u32;
+                let base1 = row1.wrapping_add(j.wrapping_mul(step1));
+                let base2 = row2.wrapping_add(j.wrapping_mul(step2));
                 let mut bits = word;
                 while bits != 0 {
-                    let (col, rest) = if CTZ {
-                        (bits.trailing_zeros(), bits & (bits - 1))
+                    let col = if CTZ {
+                        bits.trailing_zeros()
                     } else {
-                        let lowest = bits & bits.wrapping_neg();
-                        (lowest_bit_index(lowest), bits ^ lowest)
+                        lowest_bit_index(bits)
                     };
-                    let col = col as i32;
-                    let bin1 = ((base1 + col * step1) >> 16) as usize & mask;
-                    let bin2 = ((base2 + col * step2) >> 16) as usize & mask;
-                    if let Some(v) = bins.get_mut(bin1) {
+                    let bin1 = base1.wrapping_add(col.wrapping_mul(step1)) >> shift;
+                    let bin2 = base2.wrapping_add(col.wrapping_mul(step2)) >> shift;
+                    if let Some(v) = bins.get_mut(bin1 as usize) {
                         *v = v.wrapping_add(1);
                     }
-                    if let Some(v) = bins.get_mut(bin2) {
+                    if let Some(v) = bins.get_mut(bin2 as usize) {
                         *v = v.wrapping_add(1);
                     }
-                    bits = rest;
+                    bits &= bits - 1;
                 }
             }
         }
-        row1 -= 2 * s1;
-        row2 -= 2 * s2;
+        row1 = row1.wrapping_sub(down1);
+        row2 = row2.wrapping_sub(down2);
     }
 }
 
@@ -290,35 +300,44 @@ fn vote_pair<
 /// ARMv7-M, TZCNT/BSF on hosts). Not on ARMv6-M (Cortex-M0/M0+/M1: the only
 /// Arm profile without atomic read-modify-write, hence the test) nor on
 /// RV32 without Zbb, where it is a long sequence with a zero test: there
-/// the vote loop isolates the lowest set bit and looks it up
-/// ([`lowest_bit_index`]).
+/// the vote loop uses [`lowest_bit_index`].
 const FAST_CTZ: bool = !cfg!(any(
     all(target_arch = "arm", not(target_has_atomic = "ptr")),
     target_arch = "riscv32"
 ));
 
-/// de Bruijn sequence B(2, 5): the top five bits of `DE_BRUIJN << i` differ
-/// for every `i ∈ [0, 32)`.
-const DE_BRUIJN: u32 = 0x077C_B531;
+/// Multiplier of [`lowest_bit_index`]: the top five bits of
+/// `(2^(i+1) − 1) · LOWEST_BIT_MULTIPLIER` differ for every `i ∈ [0, 32)`.
+const LOWEST_BIT_MULTIPLIER: u32 = 0x07C4_ACDD;
 
-/// `i` for the top five bits of `DE_BRUIJN << i`.
-const DE_BRUIJN_INDEX: [u8; 32] = {
+/// `i` for the top five bits of `(2^(i+1) − 1) · LOWEST_BIT_MULTIPLIER`.
+const LOWEST_BIT_INDEX: [u8; 32] = {
     let mut index = [0u8; 32];
     let mut i = 0;
     while i < 32 {
-        index[((DE_BRUIJN << i) >> 27) as usize] = i as u8;
+        let ones = if i == 31 {
+            u32::MAX
+        } else {
+            (1 << (i + 1)) - 1
+        };
+        index[(ones.wrapping_mul(LOWEST_BIT_MULTIPLIER) >> 27) as usize] = i as u8;
         i += 1;
     }
     index
 };
 
-/// The index `i ∈ [0, 32)` of a single set bit, `lowest = 1 << i`, by a
-/// multiply and a table look-up (no CLZ needed). For any other `lowest`
-/// (zero or several bits) the result is some value in `[0, 32)`.
+/// `bits.trailing_zeros()` for `bits ≠ 0` (31 for 0) without CLZ: the ones
+/// up to the lowest set bit, `bits ^ (bits − 1) = 2^(i+1) − 1`, times a
+/// constant whose top five bits differ for every `i`, looked up in a
+/// 32-entry table (flash: 32 B). `bits − 1` is also what clears that bit
+/// in the vote loop. (Isolating the bit with `bits & −bits` instead, the
+/// textbook de Bruijn form, is recognised by LLVM and turned back into its
+/// own `cttz` expansion, which adds a zero test.)
 #[inline(always)]
-fn lowest_bit_index(lowest: u32) -> u32 {
+fn lowest_bit_index(bits: u32) -> u32 {
+    let ones = bits ^ bits.wrapping_sub(1);
     // The shift leaves five bits: the index is always in range.
-    u32::from(DE_BRUIJN_INDEX[(lowest.wrapping_mul(DE_BRUIJN) >> 27) as usize])
+    u32::from(LOWEST_BIT_INDEX[(ones.wrapping_mul(LOWEST_BIT_MULTIPLIER) >> 27) as usize])
 }
 
 /// The full accumulator over θ ∈ [0, π) (`HALF` columns of `RHO` bins), with
@@ -448,22 +467,28 @@ mod tests {
         assert_eq!(c, [0, 0, 0, 0, 4, 3, 0, 1]);
     }
 
-    /// The de Bruijn look-up against `trailing_zeros`: every single bit, and
-    /// the lowest bit of random words.
+    /// The look-up against `trailing_zeros`: every single bit, every
+    /// single bit with random higher bits, and random words.
     #[test]
     fn lowest_bit_index_matches_trailing_zeros() {
-        for i in 0..32 {
-            assert_eq!(lowest_bit_index(1 << i), i);
-        }
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        for _ in 0..10_000 {
+        let mut next = || {
             state = state
                 .wrapping_mul(6364136223846793005)
                 .wrapping_add(1442695040888963407);
-            let word = (state >> 32) as u32 >> (state % 32);
+            (state >> 32) as u32
+        };
+        for i in 0..32 {
+            assert_eq!(lowest_bit_index(1 << i), i);
+            for _ in 0..100 {
+                let word = (1u32 << i) | (next().checked_shl(i + 1).unwrap_or(0));
+                assert_eq!(lowest_bit_index(word), i, "{word:#x}");
+            }
+        }
+        for _ in 0..10_000 {
+            let word = next() >> (next() % 32);
             if word != 0 {
-                let lowest = word & word.wrapping_neg();
-                assert_eq!(lowest_bit_index(lowest), word.trailing_zeros(), "{word:#x}");
+                assert_eq!(lowest_bit_index(word), word.trailing_zeros(), "{word:#x}");
             }
         }
     }
