@@ -160,7 +160,11 @@ impl<const HALF: usize> Signature<HALF> {
     }
 
     /// Computes the signature two θ columns at a time (the full matrix never
-    /// exists), using `columns` as scratch. `N = 2 · HALF`.
+    /// exists), using `columns` as scratch (left zeroed). `N = 2 · HALF`.
+    ///
+    /// The columns are zeroed once; each voted column is then reduced and
+    /// cleared in one pass over the bins its votes can reach (from the
+    /// occupied cells' bounding box), not over all `RHO` bins.
     pub fn stream<
         const W: usize,
         const H: usize,
@@ -331,8 +335,8 @@ mod tests {
             let low = next() % 16;
             let high = (low + next() % 16).min(15);
             let mut col = [0u16; 16];
-            for b in low..=high {
-                col[b] = if next() % 3 == 0 {
+            for a in &mut col[low..=high] {
+                *a = if next() % 3 == 0 {
                     0
                 } else {
                     (next() % 300) as u16
