@@ -178,11 +178,11 @@ mod firmware {
         let mut columns: [Column<RHO>; 2] = [[0; RHO]; 2];
         announce("votes", second_votes);
         measure(|| {
-            let [first, second] = &mut columns;
             for k in (0..HALF - 1).step_by(2) {
-                vote_column_pair::<SIDE, SIDE, RW, N_THETA, RHO>(&SECOND, k, first, second);
+                vote_column_pair::<SIDE, SIDE, RW, N_THETA, RHO>(&SECOND, k, &mut columns);
             }
             if HALF % 2 == 1 {
+                let [first, _] = &mut columns;
                 vote_column::<SIDE, SIDE, RW, N_THETA, RHO>(&SECOND, HALF - 1, first);
             }
         });

@@ -12,7 +12,7 @@
 //! the exact ρ lies that close to a bin edge.
 
 use crate::config::{check_grid, rho_bins};
-use crate::grid::Grid;
+use crate::grid::{CellBounds, Grid};
 use crate::trig::TrigTable;
 
 /// Compile-time check of a column vote's sizes: the grid's (`RW`), an even
@@ -27,6 +27,11 @@ const fn check_column<
 >() {
     check_grid(W, H, RW);
     assert!(N >= 8 && N % 2 == 0, "N_THETA must be even and at least 8");
+    // `vote_column_pair` scales positions by 2^(16 − log2(2·RHO)).
+    assert!(
+        RHO <= 1 << 15,
+        "RHO too large for the pair vote's positions"
+    );
     assert!(
         RHO == rho_bins(W, H),
         "RHO must equal hough_heading::config::rho_bins(W, H)"
@@ -87,6 +92,29 @@ pub fn vote_column<
         }
         y2 -= 2;
     }
+}
+
+/// The bins that the votes of [`vote_column`] (or [`vote_column_pair`]) for
+/// column `k` can reach from cells inside `bounds`, `(first, last)`
+/// inclusive: the bins of the box's corners, since a vote's Q16 position is
+/// linear in the cell's coordinates and computed exactly (the same integers
+/// as the vote loops), and the bin is monotonic in the position. Every bin
+/// outside stays untouched by those votes.
+pub(crate) fn bin_span<const W: usize, const H: usize, const N: usize, const RHO: usize>(
+    bounds: &CellBounds,
+    k: usize,
+) -> (usize, usize) {
+    let table = &TrigTable::<N>::TABLE;
+    let (c, s) = (table.cos(k), table.sin(k));
+    // Doubled coordinates of the box's edges (as in `vote_column`).
+    let x = |col: usize| 2 * col as i32 - (W as i32 - 1);
+    let y = |row: usize| (H as i32 - 1) - 2 * row as i32;
+    let (x0, x1) = (x(bounds.first_col) * c, x(bounds.last_col) * c);
+    let (y0, y1) = (y(bounds.first_row) * s, y(bounds.last_row) * s);
+    let low = vote_offset(RHO) + x0.min(x1) + y0.min(y1);
+    let high = vote_offset(RHO) + x0.max(x1) + y0.max(y1);
+    let mask = RHO - 1;
+    ((low >> 16) as usize & mask, (high >> 16) as usize & mask)
 }
 
 /// Fraction bits of a split vote ([`vote_column_split`]): each occupied cell
@@ -167,16 +195,24 @@ pub fn vote_column_split<
     }
 }
 
-/// Votes two adjacent columns, `k` into `first` and `k + 1` into `second`, in
-/// one pass over the grid: the bit extraction and the scan over the grid's
-/// words are shared. Same result as two calls of [`vote_column`] at `k` and
-/// `k + 1` (taken modulo `N`, so any `k`, `usize::MAX` included, is valid).
+/// Votes two adjacent columns, `k` into `columns[0]` and `k + 1` into
+/// `columns[1]`, in one pass over the grid: the bit extraction and the scan
+/// over the grid's words are shared. Same result as two calls of
+/// [`vote_column`] at `k` and `k + 1` (taken modulo `N`, so any `k`,
+/// `usize::MAX` included, is valid).
 ///
-/// An empty word costs a load and a branch: the Q16 positions of a word are
-/// computed from its row and index only when it holds a cell (instead of a
-/// running sum updated on every word). At 128², `N_THETA` = 360 the loop
-/// takes 12.2 instructions per vote on Cortex-M4F and 23.2 on Cortex-M0
-/// (`budgets/TABLE.md`, *vote loop*).
+/// The two columns are one contiguous array of `2·RHO` bins, the second
+/// column's offset folded into its positions, and the positions are scaled
+/// so that the bin is their top bits: one pointer, one shift, no mask and
+/// no bounds check per vote (registers matter on the Cortex-M0). An empty
+/// word costs a load and a branch: the positions of a word are computed
+/// from its row and index only when it holds a cell. The cells of a word
+/// are found with `trailing_zeros` where the target counts zeros in an
+/// instruction or two (Cortex-M3/M4/M7: RBIT + CLZ; hosts), and with a
+/// multiply and a 32-entry table look-up elsewhere (Cortex-M0/M0+, RV32
+/// without Zbb, where `trailing_zeros` is a long sequence with a zero
+/// test). At 128², `N_THETA` = 360 the loop takes 11.0 instructions per vote
+/// on Cortex-M4F and 20.1 on Cortex-M0 (`budgets/TABLE.md`, *vote loop*).
 pub fn vote_column_pair<
     const W: usize,
     const H: usize,
@@ -186,42 +222,126 @@ pub fn vote_column_pair<
 >(
     grid: &Grid<W, H, RW>,
     k: usize,
-    first: &mut Column<RHO>,
-    second: &mut Column<RHO>,
+    columns: &mut [Column<RHO>; 2],
+) {
+    vote_pair::<W, H, RW, N, RHO, FAST_CTZ>(grid, k, columns);
+}
+
+/// [`vote_column_pair`] finding the cells of a word with `trailing_zeros`
+/// (`CTZ`) or with [`lowest_bit_index`]: the same votes either way (both
+/// are tested on the host).
+#[inline(always)]
+fn vote_pair<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const RHO: usize,
+    const CTZ: bool,
+>(
+    grid: &Grid<W, H, RW>,
+    k: usize,
+    columns: &mut [Column<RHO>; 2],
 ) {
     const { check_column::<W, H, RW, N, RHO>() };
     let table = &TrigTable::<N>::TABLE;
     let (c1, s1) = (table.cos(k), table.sin(k));
     // `k mod N + 1`: the same column as `k + 1`, without its overflow at usize::MAX.
     let (c2, s2) = (table.cos(k % N + 1), table.sin(k % N + 1));
-    let (step1, step2) = (2 * c1, 2 * c2);
-    let mask = RHO - 1;
-    let mut y2 = H as i32 - 1;
-    let start1 = vote_offset(RHO) - (W as i32 - 1) * c1;
-    let start2 = vote_offset(RHO) - (W as i32 - 1) * c2;
+    // Both columns as one array of 2·RHO = 2^BITS bins, the second
+    // column's votes offset by RHO bins. Positions are Q16 scaled by
+    // 2^(16 − BITS), so that the bin is the top BITS bits of a u32: one
+    // shift, no mask, and an index the compiler knows is in range. The
+    // wrapping arithmetic is exact modulo 2³², which gives the masked bin of
+    // `vote_column` (every position is in its column's range anyway).
+    let bins = columns.as_flattened_mut();
+    let bits_of_bin = (2 * RHO).trailing_zeros();
+    let scale = 16 - bits_of_bin;
+    let q = |v: i32| (v as u32) << scale;
+    let (step1, step2) = (q(2 * c1), q(2 * c2));
+    let second = q((RHO as i32) << 16);
+    // Positions of column 0 of the current row, updated by −2·sin per row
+    // (y2 = H − 1 − 2·row).
+    let mut row1 = q(vote_offset(RHO) - (W as i32 - 1) * c1 + (H as i32 - 1) * s1);
+    let mut row2 = second.wrapping_add(q(
+        vote_offset(RHO) - (W as i32 - 1) * c2 + (H as i32 - 1) * s2
+    ));
+    let (down1, down2) = (q(2 * s1), q(2 * s2));
+    let shift = 32 - bits_of_bin;
     for row in grid.words() {
-        let row1 = start1 + y2 * s1;
-        let row2 = start2 + y2 * s2;
         for (j, &word) in row.iter().enumerate() {
-            if word == 0 {
-                continue;
-            }
-            // The same values as the running sums `row + 32·j·step`,
-            // computed only for words that hold a cell.
-            let base1 = row1 + 32 * j as i32 * step1;
-            let base2 = row2 + 32 * j as i32 * step2;
-            let mut bits = word;
-            while bits != 0 {
-                let col = bits.trailing_zeros() as i32;
-                let bin1 = ((base1 + col * step1) >> 16) as usize & mask;
-                let bin2 = ((base2 + col * step2) >> 16) as usize & mask;
-                first[bin1] = first[bin1].wrapping_add(1);
-                second[bin2] = second[bin2].wrapping_add(1);
-                bits &= bits - 1;
+            if word != 0 {
+                // The same values as the running sums `row + 32·j·step`,
+                // computed only for words that hold a cell.
+                let j = 32 * j as u32;
+                let base1 = row1.wrapping_add(j.wrapping_mul(step1));
+                let base2 = row2.wrapping_add(j.wrapping_mul(step2));
+                let mut bits = word;
+                while bits != 0 {
+                    let col = if CTZ {
+                        bits.trailing_zeros()
+                    } else {
+                        lowest_bit_index(bits)
+                    };
+                    let bin1 = base1.wrapping_add(col.wrapping_mul(step1)) >> shift;
+                    let bin2 = base2.wrapping_add(col.wrapping_mul(step2)) >> shift;
+                    if let Some(v) = bins.get_mut(bin1 as usize) {
+                        *v = v.wrapping_add(1);
+                    }
+                    if let Some(v) = bins.get_mut(bin2 as usize) {
+                        *v = v.wrapping_add(1);
+                    }
+                    bits &= bits - 1;
+                }
             }
         }
-        y2 -= 2;
+        row1 = row1.wrapping_sub(down1);
+        row2 = row2.wrapping_sub(down2);
     }
+}
+
+/// Whether `trailing_zeros` is one or two instructions (RBIT + CLZ on
+/// ARMv7-M, TZCNT/BSF on hosts). Not on ARMv6-M (Cortex-M0/M0+/M1: the only
+/// Arm profile without atomic read-modify-write, hence the test) nor on
+/// RV32 without Zbb, where it is a long sequence with a zero test: there
+/// the vote loop uses [`lowest_bit_index`].
+const FAST_CTZ: bool = !cfg!(any(
+    all(target_arch = "arm", not(target_has_atomic = "ptr")),
+    target_arch = "riscv32"
+));
+
+/// Multiplier of [`lowest_bit_index`]: the top five bits of
+/// `(2^(i+1) − 1) · LOWEST_BIT_MULTIPLIER` differ for every `i ∈ [0, 32)`.
+const LOWEST_BIT_MULTIPLIER: u32 = 0x07C4_ACDD;
+
+/// `i` for the top five bits of `(2^(i+1) − 1) · LOWEST_BIT_MULTIPLIER`.
+const LOWEST_BIT_INDEX: [u8; 32] = {
+    let mut index = [0u8; 32];
+    let mut i = 0;
+    while i < 32 {
+        let ones = if i == 31 {
+            u32::MAX
+        } else {
+            (1 << (i + 1)) - 1
+        };
+        index[(ones.wrapping_mul(LOWEST_BIT_MULTIPLIER) >> 27) as usize] = i as u8;
+        i += 1;
+    }
+    index
+};
+
+/// `bits.trailing_zeros()` for `bits ≠ 0` (31 for 0) without CLZ: the ones
+/// up to the lowest set bit, `bits ^ (bits − 1) = 2^(i+1) − 1`, times a
+/// constant whose top five bits differ for every `i`, looked up in a
+/// 32-entry table (flash: 32 B). `bits − 1` is also what clears that bit
+/// in the vote loop. (Isolating the bit with `bits & −bits` instead, the
+/// textbook de Bruijn form, is recognised by LLVM and turned back into its
+/// own `cttz` expansion, which adds a zero test.)
+#[inline(always)]
+fn lowest_bit_index(bits: u32) -> u32 {
+    let ones = bits ^ bits.wrapping_sub(1);
+    // The shift leaves five bits: the index is always in range.
+    u32::from(LOWEST_BIT_INDEX[(ones.wrapping_mul(LOWEST_BIT_MULTIPLIER) >> 27) as usize])
 }
 
 /// The full accumulator over θ ∈ [0, π) (`HALF` columns of `RHO` bins), with
@@ -351,6 +471,85 @@ mod tests {
         assert_eq!(c, [0, 0, 0, 0, 4, 3, 0, 1]);
     }
 
+    /// The look-up against `trailing_zeros`: every single bit, every
+    /// single bit with random higher bits, and random words.
+    #[test]
+    fn lowest_bit_index_matches_trailing_zeros() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 32) as u32
+        };
+        for i in 0..32 {
+            assert_eq!(lowest_bit_index(1 << i), i);
+            for _ in 0..100 {
+                let word = (1u32 << i) | (next().checked_shl(i + 1).unwrap_or(0));
+                assert_eq!(lowest_bit_index(word), i, "{word:#x}");
+            }
+        }
+        for _ in 0..10_000 {
+            let word = next() >> (next() % 32);
+            if word != 0 {
+                assert_eq!(lowest_bit_index(word), word.trailing_zeros(), "{word:#x}");
+            }
+        }
+    }
+
+    /// Both bit extractions of the pair vote give the votes of two single
+    /// columns, on random grids (sparse to full, a width that is not a
+    /// multiple of 32) and at every `k`.
+    #[test]
+    fn vote_pair_both_bit_orders_equal_single_columns() {
+        type G = Grid<45, 13, 2>;
+        const RHO: usize = crate::config::rho_bins(45, 13);
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        for density in [1u64, 8, 32, 64] {
+            let mut words = [[0u32; 2]; 13];
+            for w in words.iter_mut().flatten() {
+                for bit in 0..32 {
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    if (state >> 58) < density {
+                        *w |= 1 << bit;
+                    }
+                }
+            }
+            let g = G::from_words(words);
+            for k in 0..24 {
+                let (mut a, mut b) = ([0u16; RHO], [0u16; RHO]);
+                vote_column::<45, 13, 2, 24, RHO>(&g, k, &mut a);
+                vote_column::<45, 13, 2, 24, RHO>(&g, k + 1, &mut b);
+                let mut native = [[0u16; RHO]; 2];
+                vote_pair::<45, 13, 2, 24, RHO, true>(&g, k, &mut native);
+                let mut looked_up = [[0u16; RHO]; 2];
+                vote_pair::<45, 13, 2, 24, RHO, false>(&g, k, &mut looked_up);
+                assert_eq!(native, [a, b], "density {density}, k {k}");
+                assert_eq!(looked_up, [a, b], "density {density}, k {k}");
+            }
+        }
+    }
+
+    /// Every vote of a column lands inside `bin_span` of the grid's bounds.
+    #[test]
+    fn bin_span_holds_every_vote() {
+        const RHO: usize = crate::config::rho_bins(45, 13);
+        let mut g = Grid::<45, 13, 2>::new();
+        g.set_cells([(3, 2), (40, 9), (17, 5), (22, 11)]).unwrap();
+        let bounds = g.occupied_bounds().unwrap();
+        for k in 0..36 {
+            let mut column = [0u16; RHO];
+            vote_column::<45, 13, 2, 36, RHO>(&g, k, &mut column);
+            let (low, high) = bin_span::<45, 13, 36, RHO>(&bounds, k);
+            assert!(low <= high);
+            for (b, &v) in column.iter().enumerate() {
+                assert!(v == 0 || (low..=high).contains(&b), "k {k} bin {b}");
+            }
+        }
+    }
+
     /// `k + 1` never overflows: the pair at `usize::MAX` is the columns
     /// `usize::MAX mod N` and the next one, as two single votes give them.
     #[test]
@@ -358,12 +557,12 @@ mod tests {
         let mut g = Grid::<8, 4, 1>::new();
         g.set_cells([(0, 0), (3, 1), (7, 3), (5, 2)]).unwrap();
         for k in [usize::MAX, usize::MAX - 1, 15, 0] {
-            let (mut first, mut second) = ([0u16; 16], [0u16; 16]);
-            vote_column_pair::<8, 4, 1, 16, 16>(&g, k, &mut first, &mut second);
+            let mut pair = [[0u16; 16]; 2];
+            vote_column_pair::<8, 4, 1, 16, 16>(&g, k, &mut pair);
             let (mut a, mut b) = ([0u16; 16], [0u16; 16]);
             vote_column::<8, 4, 1, 16, 16>(&g, k % 16, &mut a);
             vote_column::<8, 4, 1, 16, 16>(&g, k % 16 + 1, &mut b);
-            assert_eq!((first, second), (a, b), "{k}");
+            assert_eq!(pair, [a, b], "{k}");
         }
     }
 }

@@ -20,8 +20,8 @@
 //! use hough_heading::{config::rho_bins, stages::vote_column_pair, Grid};
 //! const RHO: usize = rho_bins(64, 64); // 128
 //! let g = Grid::<64, 64, 2>::new();
-//! let (mut a, mut b) = ([0u16; RHO], [0u16; RHO]);
-//! vote_column_pair::<64, 64, 2, 128, RHO>(&g, 0, &mut a, &mut b);
+//! let mut pair = [[0u16; RHO]; 2];
+//! vote_column_pair::<64, 64, 2, 128, RHO>(&g, 0, &mut pair);
 //! ```
 //!
 //! and each of these, the same call with another power of two for `RHO`
@@ -30,8 +30,8 @@
 //! ```compile_fail,E0080
 //! use hough_heading::{stages::vote_column_pair, Grid};
 //! let g = Grid::<64, 64, 2>::new();
-//! let (mut a, mut b) = ([0u16; 256], [0u16; 256]);
-//! vote_column_pair::<64, 64, 2, 128, 256>(&g, 0, &mut a, &mut b);
+//! let mut pair = [[0u16; 256]; 2];
+//! vote_column_pair::<64, 64, 2, 128, 256>(&g, 0, &mut pair);
 //! ```
 //!
 //! ```compile_fail,E0080

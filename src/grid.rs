@@ -161,6 +161,34 @@ impl<const W: usize, const H: usize, const ROW_WORDS: usize> Grid<W, H, ROW_WORD
         total
     }
 
+    /// The smallest box holding every occupied cell, `None` for an empty
+    /// grid. One pass over the words (`H · ROW_WORDS` loads).
+    pub(crate) fn occupied_bounds(&self) -> Option<CellBounds> {
+        let mut union = [0u32; ROW_WORDS];
+        let mut rows: Option<(usize, usize)> = None;
+        for (row, words) in self.rows.iter().enumerate() {
+            let mut any = 0;
+            for (u, &w) in union.iter_mut().zip(words) {
+                *u |= w;
+                any |= w;
+            }
+            if any != 0 {
+                rows = Some((rows.map_or(row, |(first, _)| first), row));
+            }
+        }
+        let (first_row, last_row) = rows?;
+        let first_word = union.iter().position(|&w| w != 0)?;
+        let last_word = union.iter().rposition(|&w| w != 0)?;
+        let low = union.get(first_word).copied().unwrap_or(0);
+        let high = union.get(last_word).copied().unwrap_or(0);
+        Some(CellBounds {
+            first_col: 32 * first_word + low.trailing_zeros() as usize,
+            last_col: 32 * last_word + 31 - high.leading_zeros() as usize,
+            first_row,
+            last_row,
+        })
+    }
+
     /// The occupied cells `(col, row)` in raster order (row 0 first, then by
     /// column), skipping empty words.
     pub fn occupied_cells(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
@@ -170,6 +198,20 @@ impl<const W: usize, const H: usize, const ROW_WORDS: usize> Grid<W, H, ROW_WORD
             })
         })
     }
+}
+
+/// The bounding box of a grid's occupied cells, inclusive, in cells
+/// ([`Grid::occupied_bounds`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct CellBounds {
+    /// Leftmost occupied column.
+    pub(crate) first_col: usize,
+    /// Rightmost occupied column.
+    pub(crate) last_col: usize,
+    /// Topmost occupied row.
+    pub(crate) first_row: usize,
+    /// Bottommost occupied row.
+    pub(crate) last_row: usize,
 }
 
 /// The set bits of a word, lowest first.
@@ -220,6 +262,62 @@ mod tests {
         assert!(g.set_point(2.1, 0.0).is_err());
         assert!(g.set_point(f32::NAN, 0.0).is_err());
         assert_eq!(g.occupied(), 2);
+    }
+
+    #[test]
+    fn occupied_bounds_is_the_bounding_box() {
+        assert_eq!(G::new().occupied_bounds(), None);
+        let mut g = G::new();
+        g.set(5, 1).unwrap();
+        let one = CellBounds {
+            first_col: 5,
+            last_col: 5,
+            first_row: 1,
+            last_row: 1,
+        };
+        assert_eq!(g.occupied_bounds(), Some(one));
+        g.set_cells([(39, 0), (31, 2), (32, 1)]).unwrap();
+        let all = CellBounds {
+            first_col: 5,
+            last_col: 39,
+            first_row: 0,
+            last_row: 2,
+        };
+        assert_eq!(g.occupied_bounds(), Some(all));
+        // Random grids against the definition.
+        let mut state = 0x1234_5678_9abc_def0u64;
+        for _ in 0..200 {
+            let mut g = Grid::<70, 9, 3>::new();
+            let cells = (state % 6) as usize;
+            for _ in 0..cells {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let col = (state >> 33) as usize % 70;
+                let row = (state >> 45) as usize % 9;
+                g.set(col, row).unwrap();
+            }
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1);
+            let expected = g
+                .occupied_cells()
+                .fold(None, |b: Option<CellBounds>, (c, r)| {
+                    Some(match b {
+                        None => CellBounds {
+                            first_col: c,
+                            last_col: c,
+                            first_row: r,
+                            last_row: r,
+                        },
+                        Some(b) => CellBounds {
+                            first_col: b.first_col.min(c),
+                            last_col: b.last_col.max(c),
+                            first_row: b.first_row.min(r),
+                            last_row: b.last_row.max(r),
+                        },
+                    })
+                });
+            assert_eq!(g.occupied_bounds(), expected);
+        }
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! (eqs. 13–17), for θ ∈ [0, π). The other half follows exactly:
 //! `D(θ + π) = D(θ)`, `S(θ + π) = −S(θ)`.
 
-use crate::accumulator::{vote_column, vote_column_pair, Accumulator, Column};
+use crate::accumulator::{bin_span, vote_column, vote_column_pair, Accumulator, Column};
 use crate::grid::Grid;
 
 /// How `D(θ)` reduces one accumulator column.
@@ -43,7 +43,7 @@ impl ColumnStats {
         match kind {
             PeakKind::SingleBin => Self {
                 peak: column.iter().copied().max().unwrap_or(0),
-                asymmetry: asymmetry(column),
+                asymmetry: asymmetry(column, 0),
             },
             PeakKind::TwoBin => Self {
                 peak: two_bin_peak(column),
@@ -51,6 +51,51 @@ impl ColumnStats {
             },
         }
     }
+}
+
+/// [`ColumnStats::of`] of a column whose votes all lie in `bins`, the bins
+/// `offset..offset + bins.len()` (every other bin is 0), and zeroes `bins`
+/// in the same pass: the streaming loop reduces a column and clears it for
+/// the next one without a second pass or a `memset`.
+fn take_stats(bins: &mut [u16], offset: usize, kind: PeakKind) -> ColumnStats {
+    match kind {
+        PeakKind::SingleBin => {
+            let stats = ColumnStats {
+                peak: bins.iter().copied().max().unwrap_or(0),
+                asymmetry: asymmetry(bins, offset),
+            };
+            bins.fill(0);
+            stats
+        }
+        PeakKind::TwoBin => ColumnStats {
+            peak: take_two_bin_peak(bins),
+            asymmetry: 0,
+        },
+    }
+}
+
+/// [`two_bin_peak`] of `bins` with zeros on both sides (the pairs across
+/// either end are then a single bin, never more than an inner pair when
+/// `bins.len() ≥ 2`), zeroing `bins`. Two bins per step.
+fn take_two_bin_peak(bins: &mut [u16]) -> u16 {
+    let mut peak = 0u32;
+    let mut previous = 0u32;
+    let mut pairs = bins.chunks_exact_mut(2);
+    for pair in &mut pairs {
+        if let [a, b] = pair {
+            let (x, y) = (u32::from(*a), u32::from(*b));
+            *a = 0;
+            *b = 0;
+            peak = peak.max(previous + x).max(x + y);
+            previous = y;
+        }
+    }
+    for a in pairs.into_remainder() {
+        let x = u32::from(*a);
+        *a = 0;
+        peak = peak.max(previous + x);
+    }
+    peak.min(u32::from(u16::MAX)) as u16
 }
 
 /// `max_b (A[b] + A[b + 1])`, summed in `u32` and saturated to `u16` (for
@@ -67,13 +112,15 @@ fn two_bin_peak(column: &[u16]) -> u16 {
     peak.min(u32::from(u16::MAX)) as u16
 }
 
-/// `s(θ)` of eqs. 13–17 in Q4, saturated symmetrically to `±i16::MAX`.
-fn asymmetry(column: &[u16]) -> i16 {
+/// `s(θ)` of eqs. 13–17 in Q4, saturated symmetrically to `±i16::MAX`, of
+/// a column whose votes all lie in `bins`, the bins `offset..` (every other
+/// bin is 0).
+fn asymmetry(bins: &[u16], offset: usize) -> i16 {
     let mut first = usize::MAX;
     let mut last = 0usize;
     let mut votes = 0u64;
     let mut moment = 0u64;
-    for (b, &a) in column.iter().enumerate() {
+    for (b, &a) in (offset..).zip(bins) {
         if a != 0 {
             first = first.min(b);
             last = b;
@@ -113,7 +160,11 @@ impl<const HALF: usize> Signature<HALF> {
     }
 
     /// Computes the signature two θ columns at a time (the full matrix never
-    /// exists), using `columns` as scratch. `N = 2 · HALF`.
+    /// exists), using `columns` as scratch (left zeroed). `N = 2 · HALF`.
+    ///
+    /// The columns are zeroed once; each voted column is then reduced and
+    /// cleared in one pass over the bins its votes can reach (from the
+    /// occupied cells' bounding box), not over all `RHO` bins.
     pub fn stream<
         const W: usize,
         const H: usize,
@@ -146,20 +197,34 @@ impl<const HALF: usize> Signature<HALF> {
     ) {
         const { crate::config::check_config(W, H, RW, N, HALF, RHO) };
         self.kind = kind;
-        let [first, second] = columns;
+        columns.as_flattened_mut().fill(0);
+        let Some(bounds) = grid.occupied_bounds() else {
+            self.peak.fill(0);
+            self.asymmetry.fill(0);
+            return;
+        };
+        // Reduces column `k` and leaves it zeroed: only the bins its votes
+        // can reach are read and cleared.
+        let mut take = |k: usize, column: &mut Column<RHO>| {
+            let (low, high) = bin_span::<W, H, N, RHO>(&bounds, k);
+            let stats = match column.get_mut(low..=high) {
+                Some(bins) => take_stats(bins, low, kind),
+                None => take_stats(column, 0, kind),
+            };
+            self.set(k, stats);
+        };
         let mut k = 0;
         while k + 1 < HALF {
-            first.fill(0);
-            second.fill(0);
-            vote_column_pair::<W, H, RW, N, RHO>(grid, k, first, second);
-            self.set(k, ColumnStats::of(first, kind));
-            self.set(k + 1, ColumnStats::of(second, kind));
+            vote_column_pair::<W, H, RW, N, RHO>(grid, k, columns);
+            let [first, second] = columns;
+            take(k, first);
+            take(k + 1, second);
             k += 2;
         }
         if k < HALF {
-            first.fill(0);
+            let [first, _] = columns;
             vote_column::<W, H, RW, N, RHO>(grid, k, first);
-            self.set(k, ColumnStats::of(first, kind));
+            take(k, first);
         }
     }
 
@@ -251,6 +316,38 @@ mod tests {
         for kind in [PeakKind::SingleBin, PeakKind::TwoBin] {
             let streamed = Signature::<18>::stream::<20, 12, 1, 36, 32>(&g, kind, &mut columns);
             assert_eq!(streamed, Signature::from_accumulator(&acc, kind));
+        }
+    }
+
+    /// The fused reduce-and-clear of a sub-range equals `ColumnStats::of` of
+    /// the whole column, for both kinds, odd and even ranges, and leaves the
+    /// range zeroed.
+    #[test]
+    fn take_stats_equals_of_and_clears() {
+        let mut state = 0x5851_f42d_4c95_7f2du64;
+        for _ in 0..500 {
+            let mut next = || {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                (state >> 33) as usize
+            };
+            let low = next() % 16;
+            let high = (low + next() % 16).min(15);
+            let mut col = [0u16; 16];
+            for a in &mut col[low..=high] {
+                *a = if next() % 3 == 0 {
+                    0
+                } else {
+                    (next() % 300) as u16
+                };
+            }
+            for kind in [PeakKind::SingleBin, PeakKind::TwoBin] {
+                let expected = ColumnStats::of(&col, kind);
+                let mut taken = col;
+                assert_eq!(take_stats(&mut taken[low..=high], low, kind), expected);
+                assert_eq!(taken, [0; 16]);
+            }
         }
     }
 

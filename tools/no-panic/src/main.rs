@@ -230,8 +230,7 @@ fn entry_votes<
     // Issue 14 item 2: the streaming signature, the pair vote at any `k`,
     // the trig table and a prepared reference.
     let mut pair: [Column<RHO>; 2] = opaque([[0u16; RHO]; 2]);
-    let [first, second] = &mut pair;
-    hough_heading::stages::vote_column_pair::<W, H, RW, N, RHO>(grid, opaque(0), first, second);
+    hough_heading::stages::vote_column_pair::<W, H, RW, N, RHO>(grid, opaque(0), &mut pair);
     opaque(&pair);
     let mut streamed = Signature::<HALF>::stream::<W, H, RW, N, RHO>(grid, opaque_kind(), &mut pair);
     streamed.restream::<W, H, RW, N, RHO>(grid, opaque_kind(), &mut pair);
