@@ -4,14 +4,14 @@
 
 mod common;
 
-use hough_heading::stages::{BeamEnd, ScanBeams, BEAM_NEAR_CELLS};
+use hough_heading::stages::{BeamEnd, ScanBeams, BEAM_FAR_CELLS, BEAM_NEAR_CELLS};
 use hough_heading::{grid, Raster, Scan, ScanStats, SensorOffset};
 use proptest::prelude::*;
 
 /// The bound of `src/scan/beam.rs` (cells, per coordinate) for a range of
 /// `r_c` cells.
 fn bound(r_c: f64) -> f64 {
-    r_c * 2.3e-5 + 1.0 / 16_384.0
+    r_c * 2.3e-5 + 1.0 / 8_192.0
 }
 
 /// Beam `i`'s exact end point in cells, `f64`.
@@ -40,6 +40,8 @@ fn check_scan(scan: &Scan<'_>, cell: f32) -> Result<f64, TestCaseError> {
                     (f64::from(x) / 65_536.0 - xe).abs(),
                     (f64::from(y) / 65_536.0 - ye).abs(),
                 );
+                let limit = BEAM_NEAR_CELLS << 16;
+                prop_assert!(x.abs() < limit && y.abs() < limit);
                 prop_assert!(
                     dx <= bound(r_c) && dy <= bound(r_c),
                     "beam {i}, r {r}: ({x}, {y}) vs ({xe}, {ye}): {dx} {dy} > {}",
@@ -49,7 +51,7 @@ fn check_scan(scan: &Scan<'_>, cell: f32) -> Result<f64, TestCaseError> {
             }
             BeamEnd::Far => {
                 prop_assert!(
-                    xe.hypot(ye) >= f64::from(BEAM_NEAR_CELLS) - 1.0,
+                    xe.hypot(ye) >= f64::from(BEAM_FAR_CELLS) - 1.0,
                     "beam {i}, r {r}: far but at ({xe}, {ye})"
                 );
             }

@@ -10,8 +10,8 @@
 //!   ordered like their bits), with the categories of [`ScanStats`].
 //! - **Range**: `r / cell` in Q16 cells from the reading's mantissa and
 //!   exponent times `1/cell` rounded to 20 bits (two 32-bit products).
-//! - **Direction**: [`sin_cos`](super::sine) of the binary angle (Q16,
-//!   quarter-wave table).
+//! - **Direction**: `sin_cos` (module `sine`) of the binary angle (Q16,
+//!   1024-segment table, linear interpolation).
 //! - **End point**: `offset/cell + r·(cos, sin)`, Q16 cells, in the grid's
 //!   centred, y-up coordinates.
 //!
@@ -19,23 +19,32 @@
 //!
 //! Against the exact end point `(offset + r·(cos φ, sin φ)) / cell` with
 //! `φ = angle_min + i·angle_increment + offset.theta` evaluated in `f64`
-//! (units: cells, per coordinate): below `r_c·2.3·10⁻⁵ + 2⁻¹⁴` where
-//! `r_c = r / cell` (sine table 2.1·10⁻⁵, `1/cell` 2⁻²⁰ relative, the
+//! (units: cells, per coordinate): below `r_c·2.3·10⁻⁵ + 2⁻¹³` where
+//! `r_c = r / cell` (sine table 2.0·10⁻⁵, `1/cell` 2⁻²⁰ relative, the
 //! angle's reduction ~10⁻¹⁵ turn per radian of `|angle_min + θ|`, the
-//! truncations of the two products and the offset's rounding 2⁻¹⁵ in all).
+//! truncations of the range (2⁻¹⁵) and of the products (2⁻¹⁵) and the
+//! offset's rounding (2⁻¹⁷): below 2⁻¹³ in all).
 //! On the tool's 256² grids (`r_c` ≤ 181 inside the window) that is
 //! 0.004 cells; at the largest grid (2048², `r_c` ≤ 1449) 0.034 cells. In
-//! metres, multiply by `cell`. Beams ending 2¹³ cells or more from the robot
-//! are reported [`BeamEnd::Far`] (outside any grid, which is at most 2048
-//! cells wide), without coordinates; the others have both coordinates
-//! within ±2¹³ cells.
+//! metres, multiply by `cell`. Beams of 2¹⁴ cells or more are reported
+//! [`BeamEnd::Far`] (at least 2¹³ cells away: outside any grid, which is at
+//! most 2048 cells wide), without coordinates.
+//!
+//! Cost: the common case (a normal reading between the scan's smallest and
+//! largest fast range, finite geometry, sensor near the robot) takes one
+//! compare to classify, two products for the range, two table
+//! interpolations and four products for the end point; every other reading
+//! goes through the general path, out of line.
 
 use super::sine::{sin_cos, SINE_FRACTION_BITS};
 use super::{Raster, Scan, ScanStats};
 
-/// Beams ending this many cells or more from the robot (along x or y, or
-/// far beyond it) are [`BeamEnd::Far`]: outside every grid (W, H ≤ 2048).
-pub const BEAM_NEAR_CELLS: i32 = 1 << 13;
+/// [`BeamEnd::Far`] beams end at least this many cells from the robot:
+/// outside every grid (W, H ≤ 2048).
+pub const BEAM_FAR_CELLS: i32 = 1 << 13;
+/// [`BeamEnd::Near`] coordinates are below this many cells in magnitude
+/// (`2¹⁴ + 4096`: a range below 2¹⁴ cells from an offset below 4096).
+pub const BEAM_NEAR_CELLS: i32 = (1 << 14) + 4096;
 
 /// Q16: one cell is `1 << 16`.
 const ONE: i32 = 1 << 16;
@@ -52,14 +61,15 @@ const NEAR_OFFSET_CELLS: f64 = 4096.0;
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum BeamEnd {
     /// A valid return ending at `(x, y)`: centred, y-up cell coordinates
-    /// (DESIGN.md §2) in Q16 (cells × 2¹⁶), both within ±[`BEAM_NEAR_CELLS`].
+    /// (DESIGN.md §2) in Q16 (cells × 2¹⁶), both below [`BEAM_NEAR_CELLS`]
+    /// in magnitude.
     Near {
         /// Cells to the right of the grid centre, Q16.
         x: i32,
         /// Cells above the grid centre, Q16.
         y: i32,
     },
-    /// A valid return ending at least [`BEAM_NEAR_CELLS`] from the robot
+    /// A valid return ending at least [`BEAM_FAR_CELLS`] from the robot
     /// (Euclidean distance): outside every grid.
     Far,
     /// A reading at or beyond `max_range` ([`ScanStats::no_return`]).
@@ -89,6 +99,17 @@ pub struct ScanBeams {
     inv_mantissa: u32,
     inv_exponent: i32,
     origin: Origin,
+    /// Readings whose bits are in `fast_low..fast_low + fast_span` take the
+    /// fast path: normal, below `max_range`, with `shift ∈ [14, 31]`
+    /// (empty unless the geometry is finite and the origin near).
+    fast_low: u32,
+    fast_span: u32,
+    /// `134 − inv_exponent`: the range's right shift is this minus the
+    /// reading's biased exponent.
+    shift_base: i32,
+    /// The near origin, Q16 (0 when wide: the fast path is then empty).
+    origin_x: i32,
+    origin_y: i32,
 }
 
 /// The sensor's position in cells.
@@ -126,6 +147,25 @@ impl ScanBeams {
             }
         };
         let (inv_mantissa, inv_exponent) = mantissa_20(inv_cell);
+        let shift_base = 134 - inv_exponent;
+        let (origin_x, origin_y, near_origin) = match origin {
+            Origin::Near { x, y } => (x, y, true),
+            Origin::Wide { .. } => (0, 0, false),
+        };
+        // Fast readings: biased exponent e ∈ [1, 254] with the shift
+        // `shift_base − e` ∈ [14, 31] (the range is then below 2¹⁴ cells and
+        // both partial products' shifts are below 32), and below `max_range`
+        // (bits of a positive `max_range`, +∞ included).
+        let (mut fast_low, mut fast_span) = (0, 0);
+        if finite && near_origin && scan.max_range > 0.0 {
+            let low_e = (shift_base - 31).max(1);
+            let high_e = (shift_base - 14).min(254);
+            if low_e <= high_e {
+                fast_low = (low_e as u32) << 23;
+                let high = (((high_e + 1) as u32) << 23).min(scan.max_range.to_bits());
+                fast_span = high.saturating_sub(fast_low);
+            }
+        }
         Self {
             start: turns(f64::from(scan.angle_min) + f64::from(o.theta)),
             step: turns(f64::from(scan.angle_increment)),
@@ -134,6 +174,11 @@ impl ScanBeams {
             inv_mantissa,
             inv_exponent,
             origin,
+            fast_low,
+            fast_span,
+            shift_base,
+            origin_x,
+            origin_y,
         }
     }
 
@@ -152,6 +197,28 @@ impl ScanBeams {
     /// `range` ends.
     #[inline(always)]
     pub(crate) fn end_at(&self, angle: u32, range: f32) -> BeamEnd {
+        let bits = range.to_bits();
+        if bits.wrapping_sub(self.fast_low) < self.fast_span {
+            // Normal, positive, below `max_range`, shift in [14, 31]: the
+            // range is below 2¹⁴ cells (m·K < 2⁴⁴).
+            let shift = (self.shift_base - (bits >> 23) as i32) as u32;
+            let m = (bits & 0x007f_ffff) | 0x0080_0000;
+            let k = self.inv_mantissa;
+            let r =
+                ((m >> 12) * k).wrapping_shr(shift - 12) + ((m & 0xfff) * k).wrapping_shr(shift);
+            let (s, c) = sin_cos(angle);
+            return BeamEnd::Near {
+                x: self.origin_x + times(r, c),
+                y: self.origin_y + times(r, s),
+            };
+        }
+        self.general_end(angle, range)
+    }
+
+    /// [`end_at`](Self::end_at) for every reading, out of line: the
+    /// categories, subnormals, long and tiny ranges, far sensors.
+    #[inline(never)]
+    fn general_end(&self, angle: u32, range: f32) -> BeamEnd {
         let bits = range.to_bits();
         let magnitude = bits & 0x7fff_ffff;
         if magnitude >= 0x7f80_0000 {
@@ -177,9 +244,10 @@ impl ScanBeams {
                 }
                 let (s, c) = sin_cos(angle);
                 // |x| < 4096 + 2¹⁴ cells: fits Q16 in an i32.
-                let x = ox + times(r, c);
-                let y = oy + times(r, s);
-                near(x, y)
+                BeamEnd::Near {
+                    x: ox + times(r, c),
+                    y: oy + times(r, s),
+                }
             }
             Origin::Wide { x, y, inv_cell } => wide_end(angle, range, x, y, inv_cell),
         }
@@ -187,7 +255,6 @@ impl ScanBeams {
 
     /// `range / cell` in Q16 (`bits` positive and finite), saturated to
     /// [`NEAR_RANGE_Q16`] or above: error below `r_c·2⁻²⁰ + 2⁻¹⁵` cells.
-    #[inline(always)]
     fn range_q16(&self, bits: u32) -> u32 {
         let (m, exponent) = match (bits >> 23) as i32 {
             0 => {
@@ -216,30 +283,17 @@ impl ScanBeams {
     }
 }
 
-/// A point's [`BeamEnd`]: near if both coordinates are within
-/// ±[`BEAM_NEAR_CELLS`].
-#[inline(always)]
-fn near(x: i32, y: i32) -> BeamEnd {
-    const LIMIT: u32 = (BEAM_NEAR_CELLS as u32) << 16;
-    if x.unsigned_abs() < LIMIT && y.unsigned_abs() < LIMIT {
-        BeamEnd::Near { x, y }
-    } else {
-        BeamEnd::Far
-    }
-}
-
-/// `r·v` in Q16 for `r` Q16 below 2³⁰ and `v` Q16 within ±1: truncated
-/// toward zero (error below 2⁻¹⁶ cells). Two 32-bit products.
+/// `r·v` in Q16 for `r` Q16 below 2³⁰ and `v` Q16 within ±1, signed
+/// throughout (no branch): the integer cells of `r` times `v` exactly, its
+/// fraction to 15 bits, floored: error below 2⁻¹⁵ cells. Two 32-bit
+/// products.
 #[inline(always)]
 fn times(r: u32, v: i32) -> i32 {
-    let m = v.unsigned_abs();
-    // r >> 16 < 2¹⁴ and m ≤ 2¹⁶: < 2³⁰; (r & 0xffff)·m < 2³².
-    let product = (r >> 16) * m + (((r & 0xffff) * m) >> SINE_FRACTION_BITS);
-    if v < 0 {
-        -(product as i32)
-    } else {
-        product as i32
-    }
+    // r >> 16 < 2¹⁴ and |v| ≤ 2¹⁶: |·| ≤ 2³⁰; the fraction's 15 bits
+    // times |v| ≤ 2¹⁶: below 2³¹.
+    let whole = (r >> 16) as i32 * v;
+    let fraction = ((r >> 1) & 0x7fff) as i32 * v;
+    whole + (fraction >> (SINE_FRACTION_BITS - 1))
 }
 
 /// The end point in `f64` for a sensor thousands of cells from the robot.
@@ -249,9 +303,12 @@ fn wide_end(angle: u32, range: f32, ox: f64, oy: f64, inv_cell: f64) -> BeamEnd 
     let (s, c) = sin_cos(angle);
     let scale = f64::from(range) * inv_cell / f64::from(ONE);
     let (x, y) = (ox + scale * f64::from(c), oy + scale * f64::from(s));
-    let limit = f64::from(BEAM_NEAR_CELLS);
+    let limit = f64::from(BEAM_NEAR_CELLS - 1);
     if x.abs() < limit && y.abs() < limit {
-        near(round_q16(x), round_q16(y))
+        BeamEnd::Near {
+            x: round_q16(x),
+            y: round_q16(y),
+        }
     } else {
         BeamEnd::Far
     }
@@ -312,7 +369,7 @@ fn mantissa_20(v: f64) -> (u32, i32) {
     (k as u32, exponent - 1075 + 33 + extra)
 }
 
-/// `v` in Q16, rounded (`|v| < 2¹⁵`).
+/// `v` in Q16, rounded (`|v| < 2¹⁵ − 1`).
 fn round_q16(v: f64) -> i32 {
     let scaled = v * f64::from(ONE);
     let rounded = if scaled >= 0.0 {
