@@ -201,7 +201,7 @@ impl Raster {
     /// Fixed point ([`ScanBeams`]): each end point is within
     /// `r_c·2.3·10⁻⁵ + 2⁻¹³` cells of the exact one (`r_c` = range in
     /// cells), then set in the cell containing it. Work per beam: integer
-    /// only (a table sine and cosine, four 32-bit products), plus, with
+    /// only (a table sine and cosine, six 32-bit products), plus, with
     /// [`connect`](Self::connect), the segment's points.
     pub fn rasterize<const W: usize, const H: usize, const RW: usize>(
         &self,
