@@ -337,7 +337,9 @@ fn order_key(bits: u32) -> u32 {
 /// `|x| ≥ 2⁶²` turns (no fraction left in an `f64`) or `x` is not finite.
 fn turns(x: f64) -> u64 {
     let t = x * (1.0 / crate::math::TAU);
-    if !(t.abs() < 4.611_686_018_427_388e18) {
+    // NaN fails the compare too.
+    let in_range = t.abs() < 4.611_686_018_427_388e18;
+    if !in_range {
         return 0;
     }
     let whole = t as i64;
