@@ -141,6 +141,32 @@ impl<const W: usize, const H: usize, const ROW_WORDS: usize> Grid<W, H, ROW_WORD
         self.set(col as usize, row as usize)
     }
 
+    /// Marks the cell containing point `(x, y)` occupied, in the centred,
+    /// y-up coordinates of [`set_point`](Self::set_point) in Q16 (cells ×
+    /// 2¹⁶, both within ±(2³¹ − 2²⁶)); whether it is inside the grid.
+    /// Integer only: the scan rasterizer's setter (the cell is `⌊x + W/2⌋`,
+    /// `⌊H/2 − y⌋`, as `set_point` computes it in `f32`).
+    #[inline(always)]
+    pub(crate) fn set_q16(&mut self, x: i32, y: i32) -> bool {
+        // W, H ≤ 2048: W·2¹⁵ ≤ 2²⁶, so nothing wraps in range.
+        let col = x.wrapping_add((W as i32) << 15) >> 16;
+        let row = ((H as i32) << 15).wrapping_sub(y) >> 16;
+        if col < 0 || col as usize >= W {
+            return false;
+        }
+        match self
+            .rows
+            .get_mut(row as usize)
+            .and_then(|r| r.get_mut(col as usize / 32))
+        {
+            Some(word) => {
+                *word |= 1 << (col % 32);
+                true
+            }
+            None => false,
+        }
+    }
+
     /// Clears every cell.
     pub fn clear_all(&mut self) {
         self.rows = [[0; ROW_WORDS]; H];

@@ -158,7 +158,8 @@ pub mod stages {
     };
     pub use crate::reference::{Profile, PROFILE_COLUMNS, REFERENCE_FORMAT};
     pub use crate::scan::{
-        range_percentile, AUTO_MAX_RADIUS_M, AUTO_MIN_RADIUS_M, AUTO_PERCENTILE,
+        range_percentile, BeamEnd, ScanBeams, AUTO_MAX_RADIUS_M, AUTO_MIN_RADIUS_M,
+        AUTO_PERCENTILE, BEAM_FAR_CELLS, BEAM_NEAR_CELLS,
     };
     pub use crate::signature::{ColumnStats, PeakKind, Signature, ASYMMETRY_FRACTION_BITS};
     pub use crate::trig::{TrigTable, TRIG_FRACTION_BITS};

@@ -286,8 +286,8 @@ fn table_page(table: &str) -> String {
          up to 0.3 m, verification on); `.ci/firmware.sh` checks that every result is the host's, \
          bit for bit (`hough-heading mcu check`). *instr. / pair*: the window (`Raster::auto` over \
          both scans), rasterizing both scans, the reference and the estimate. *rasterize*: \
-         `Raster::rasterize` of one scan (software `f64` sine and cosine per beam, segments \
-         between neighbours), per beam and per scan. *RAM*: `.data + .bss` plus the lowest stack \
+         `Raster::rasterize` of one scan (fixed point: a table sine and cosine and integer \
+         products per beam, segments between neighbours), per beam and per scan. *RAM*: `.data + .bss` plus the lowest stack \
          address written in any measured region below the top of the stack (estimator, reference, \
          one grid, the ranges while a scan is read: all on the stack).\n\
          - Cortex-M4F runs on QEMU `mps2-an386`, Cortex-M0 on `microbit` (16 KiB RAM); RISC-V is only \

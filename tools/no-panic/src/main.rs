@@ -40,9 +40,10 @@ use hough_heading::{
     stages::fit_translation, stages::match_profile, stages::match_profile_near,
     stages::paper_asymmetry, stages::range_percentile, stages::vote_column,
     stages::vote_column_split, stages::Accumulator, stages::Column, stages::ColumnShift,
-    stages::ColumnStats, stages::Correlation, stages::Peak, stages::PeakKind, stages::Shift,
-    stages::Signature, stages::REFERENCE_FORMAT, stages::RUNNERS_UP, Angle, Error, Estimator, Grid,
-    Mode, Prior, Raster, Reference, ScaleRange, Scan, ScanStats, Score, SensorOffset, Thresholds,
+    stages::ColumnStats, stages::Correlation, stages::Peak, stages::PeakKind, stages::ScanBeams,
+    stages::Shift, stages::Signature, stages::REFERENCE_FORMAT, stages::RUNNERS_UP, Angle, Error,
+    Estimator, Grid, Mode, Prior, Raster, Reference, ScaleRange, Scan, ScanStats, Score,
+    SensorOffset, Thresholds,
 };
 
 /// Any value of `T`, as far as the optimiser knows.
@@ -232,7 +233,8 @@ fn entry_votes<
     let mut pair: [Column<RHO>; 2] = opaque([[0u16; RHO]; 2]);
     hough_heading::stages::vote_column_pair::<W, H, RW, N, RHO>(grid, opaque(0), &mut pair);
     opaque(&pair);
-    let mut streamed = Signature::<HALF>::stream::<W, H, RW, N, RHO>(grid, opaque_kind(), &mut pair);
+    let mut streamed =
+        Signature::<HALF>::stream::<W, H, RW, N, RHO>(grid, opaque_kind(), &mut pair);
     streamed.restream::<W, H, RW, N, RHO>(grid, opaque_kind(), &mut pair);
     opaque(&streamed);
     let table = &hough_heading::stages::TrigTable::<N>::TABLE;
@@ -358,6 +360,8 @@ fn entry_scan<const W: usize, const H: usize, const RW: usize>(grid: &mut Grid<W
         let raster = raster.connect(opaque(0.0)).clip_to_disc(opaque(false));
         opaque(raster.cell());
         let stats: ScanStats = raster.rasterize(&scan, grid);
+        let beams = ScanBeams::new(&scan, &raster);
+        opaque(beams.end(opaque(0), opaque(0.0)));
         opaque(stats.dropped());
         opaque(raster.motion(Angle(opaque(0)), opaque(None)));
     }
