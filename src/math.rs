@@ -250,17 +250,73 @@ pub(crate) fn sort_descending<T: Copy>(items: &mut [T], key: impl Fn(&T) -> u32)
     }
 }
 
-/// `Σ p·q` in `u32`, wrapping: exact when the caller has bounded the sum
-/// below 2³² (e.g. at most 256 products of a `u8` and a `u16`, or
-/// `HALF ≤ 2¹¹` products of two-bin peaks bounded by the configuration).
-#[inline]
-pub(crate) fn dot_u32<'a, P: Copy + Into<u32> + 'a>(
-    p: impl Iterator<Item = &'a P>,
-    q: &[u16],
-) -> u32 {
-    p.zip(q)
-        .map(|(&x, &y)| x.into() * u32::from(y))
-        .fold(0u32, u32::wrapping_add)
+/// `K` dot products in one pass: `Σ_i p[i]·q[i + j]` for the `K`
+/// consecutive offsets `j = 0..K` of `q` (a block of `K` shifts of a
+/// cross-correlation). Each value of `q` is loaded once and kept in a
+/// sliding window of `K` values, so a step costs one load of `p`, one of
+/// `q` and `K` multiply-adds, where `K` separate dot products load both
+/// values for every multiply-add.
+///
+/// The sums are `u32`, wrapping: exact while the caller bounds each below
+/// 2³² (at most 256 products of a `u8` and a `u16`, or `HALF ≤ 2¹¹` products
+/// of two-bin peaks bounded by the configuration), then [`Lanes::take`]n.
+#[derive(Clone, Copy)]
+pub(crate) struct Lanes<const K: usize> {
+    /// `q[i + j − 1]` in slot `j ≥ 1` before the step of `i` (slot 0 is
+    /// about to be dropped); `q[i + j]` in slot `j` after it.
+    window: [u32; K],
+    /// The `K` partial sums.
+    sums: [u32; K],
+}
+
+impl<const K: usize> Lanes<K> {
+    /// Lanes about to step through `i = i0, i0 + 1, …`: `lead(j)` is
+    /// `q[i0 + j]` for `j < K − 1` (0 where `q` has no such index).
+    #[inline(always)]
+    pub(crate) fn starting(lead: impl Fn(usize) -> u32) -> Self {
+        let mut window = [0u32; K];
+        for (j, slot) in window.iter_mut().enumerate().skip(1) {
+            *slot = lead(j - 1);
+        }
+        Self {
+            window,
+            sums: [0; K],
+        }
+    }
+
+    /// One step: `p = p[i]`, `q = q[i + K − 1]`.
+    #[inline(always)]
+    pub(crate) fn step(&mut self, p: u32, q: u32) {
+        self.window.rotate_left(1);
+        if let Some(newest) = self.window.last_mut() {
+            *newest = q;
+        }
+        for (sum, &w) in self.sums.iter_mut().zip(&self.window) {
+            *sum = sum.wrapping_add(p.wrapping_mul(w));
+        }
+    }
+
+    /// Steps through `p` and `q` (`q[i + K − 1]` in step with `p[i]`)
+    /// until either ends.
+    #[inline(always)]
+    pub(crate) fn feed<'a, P: Copy + Into<u32> + 'a>(
+        &mut self,
+        p: impl Iterator<Item = &'a P>,
+        q: &[u16],
+    ) {
+        // On locals, so that the window and the sums stay in registers.
+        let mut lanes = *self;
+        for (&p, &q) in p.zip(q) {
+            lanes.step(p.into(), u32::from(q));
+        }
+        *self = lanes;
+    }
+
+    /// The `K` sums so far; they restart from 0 (the window is kept).
+    #[inline(always)]
+    pub(crate) fn take(&mut self) -> [u32; K] {
+        core::mem::replace(&mut self.sums, [0; K])
+    }
 }
 
 #[cfg(test)]
@@ -415,9 +471,20 @@ mod tests {
     }
 
     #[test]
-    fn dot_u32_vectors() {
-        assert_eq!(dot_u32([1u8, 2, 3].iter(), &[4, 5, 6]), 32);
-        assert_eq!(dot_u32([1u16, 2].iter(), &[7, 8, 9]), 23);
-        assert_eq!(dot_u32([255u8; 4].iter(), &[65_535; 4]), 4 * 255 * 65_535);
+    fn lanes_vectors() {
+        // q = [4, 5, 6, 7, 8]: offsets 0, 1, 2 of p = [1, 2, 3].
+        let q = [4u16, 5, 6, 7, 8];
+        let mut lanes = Lanes::<3>::starting(|j| u32::from(q[j]));
+        lanes.feed([1u8, 2, 3].iter(), &q[2..]);
+        assert_eq!(lanes.take(), [32, 38, 44]);
+        assert_eq!(lanes.take(), [0; 3]);
+        // Steps past the end of q read 0.
+        let mut lanes = Lanes::<2>::starting(|j| u32::from(q[j + 3]));
+        lanes.feed([1u16].iter(), &q[4..]);
+        lanes.step(2, 0);
+        assert_eq!(lanes.take(), [7 + 16, 8]);
+        let mut lanes = Lanes::<1>::starting(|_| 0);
+        lanes.feed([255u8; 4].iter(), &[65_535; 4]);
+        assert_eq!(lanes.take(), [4 * 255 * 65_535]);
     }
 }
