@@ -250,72 +250,105 @@ pub(crate) fn sort_descending<T: Copy>(items: &mut [T], key: impl Fn(&T) -> u32)
     }
 }
 
-/// `K` dot products in one pass: `Σ_i p[i]·q[i + j]` for the `K`
-/// consecutive offsets `j = 0..K` of `q` (a block of `K` shifts of a
+/// Shifts per pass of [`Lanes`].
+pub(crate) const LANES: usize = 4;
+
+/// [`LANES`] dot products in one pass: `Σ_i p[i]·q[i + j]` for the
+/// consecutive offsets `j = 0..LANES` of `q` (a block of shifts of a
 /// cross-correlation). Each value of `q` is loaded once and kept in a
-/// sliding window of `K` values, so a step costs one load of `p`, one of
-/// `q` and `K` multiply-adds, where `K` separate dot products load both
-/// values for every multiply-add.
+/// sliding window, so a step costs one load of `p`, one of `q` and
+/// `LANES` multiply-adds, where separate dot products load both values for
+/// every multiply-add.
 ///
 /// The sums are `u32`, wrapping: exact while the caller bounds each below
 /// 2³² (at most 256 products of a `u8` and a `u16`, or `HALF ≤ 2¹¹` products
 /// of two-bin peaks bounded by the configuration), then [`Lanes::take`]n.
 #[derive(Clone, Copy)]
-pub(crate) struct Lanes<const K: usize> {
-    /// `q[i + j − 1]` in slot `j ≥ 1` before the step of `i` (slot 0 is
-    /// about to be dropped); `q[i + j]` in slot `j` after it.
-    window: [u32; K],
-    /// The `K` partial sums.
-    sums: [u32; K],
+pub(crate) struct Lanes {
+    /// `q[i + j]` for `j < LANES − 1` before the step of `i`.
+    window: [u32; LANES - 1],
+    /// The partial sums.
+    sums: [u32; LANES],
 }
 
-impl<const K: usize> Lanes<K> {
+impl Lanes {
     /// Lanes about to step through `i = i0, i0 + 1, …`: `lead(j)` is
-    /// `q[i0 + j]` for `j < K − 1` (0 where `q` has no such index).
+    /// `q[i0 + j]` for `j < LANES − 1` (0 where `q` has no such index).
     #[inline(always)]
     pub(crate) fn starting(lead: impl Fn(usize) -> u32) -> Self {
-        let mut window = [0u32; K];
-        for (j, slot) in window.iter_mut().enumerate().skip(1) {
-            *slot = lead(j - 1);
-        }
         Self {
-            window,
-            sums: [0; K],
+            window: [lead(0), lead(1), lead(2)],
+            sums: [0; LANES],
         }
     }
 
-    /// One step: `p = p[i]`, `q = q[i + K − 1]`.
+    /// One step: `p = p[i]`, `q = q[i + LANES − 1]`. By value, so that the
+    /// lanes live in registers.
     #[inline(always)]
-    pub(crate) fn step(&mut self, p: u32, q: u32) {
-        self.window.rotate_left(1);
-        if let Some(newest) = self.window.last_mut() {
-            *newest = q;
-        }
-        for (sum, &w) in self.sums.iter_mut().zip(&self.window) {
-            *sum = sum.wrapping_add(p.wrapping_mul(w));
+    #[must_use]
+    pub(crate) fn step(self, p: u32, q: u32) -> Self {
+        let [w0, w1, w2] = self.window;
+        let [s0, s1, s2, s3] = self.sums;
+        let mac = |s: u32, w: u32| s.wrapping_add(p.wrapping_mul(w));
+        Self {
+            window: [w1, w2, q],
+            sums: [mac(s0, w0), mac(s1, w1), mac(s2, w2), mac(s3, q)],
         }
     }
 
-    /// Steps through `p` and `q` (`q[i + K − 1]` in step with `p[i]`)
-    /// until either ends.
+    /// Steps through `p` (backwards when `REVERSED`) and `q`
+    /// (`q[i + LANES − 1]` in step with the `i`-th value of `p`) until
+    /// either ends. Unrolled by 4: the window shifts by renaming.
     #[inline(always)]
-    pub(crate) fn feed<'a, P: Copy + Into<u32> + 'a>(
-        &mut self,
-        p: impl Iterator<Item = &'a P>,
-        q: &[u16],
-    ) {
-        // On locals, so that the window and the sums stay in registers.
+    pub(crate) fn feed<P: Copy + Into<u32>, const REVERSED: bool>(&mut self, p: &[P], q: &[u16]) {
+        let n = p.len().min(q.len());
+        let p = if REVERSED {
+            p.get(p.len() - n..)
+        } else {
+            p.get(..n)
+        };
+        let (Some(p), Some(q)) = (p, q.get(..n)) else {
+            return;
+        };
         let mut lanes = *self;
-        for (&p, &q) in p.zip(q) {
-            lanes.step(p.into(), u32::from(q));
+        let q4 = q.chunks_exact(4);
+        let q_rest = q4.remainder();
+        if REVERSED {
+            let p4 = p.rchunks_exact(4);
+            let p_rest = p4.remainder();
+            for (p, q) in p4.zip(q4) {
+                if let (&[p3, p2, p1, p0], &[q0, q1, q2, q3]) = (p, q) {
+                    lanes = lanes.step(p0.into(), q0.into());
+                    lanes = lanes.step(p1.into(), q1.into());
+                    lanes = lanes.step(p2.into(), q2.into());
+                    lanes = lanes.step(p3.into(), q3.into());
+                }
+            }
+            for (&p, &q) in p_rest.iter().rev().zip(q_rest) {
+                lanes = lanes.step(p.into(), q.into());
+            }
+        } else {
+            let p4 = p.chunks_exact(4);
+            let p_rest = p4.remainder();
+            for (p, q) in p4.zip(q4) {
+                if let (&[p0, p1, p2, p3], &[q0, q1, q2, q3]) = (p, q) {
+                    lanes = lanes.step(p0.into(), q0.into());
+                    lanes = lanes.step(p1.into(), q1.into());
+                    lanes = lanes.step(p2.into(), q2.into());
+                    lanes = lanes.step(p3.into(), q3.into());
+                }
+            }
+            for (&p, &q) in p_rest.iter().zip(q_rest) {
+                lanes = lanes.step(p.into(), q.into());
+            }
         }
         *self = lanes;
     }
 
-    /// The `K` sums so far; they restart from 0 (the window is kept).
+    /// The sums so far; they restart from 0 (the window is kept).
     #[inline(always)]
-    pub(crate) fn take(&mut self) -> [u32; K] {
-        core::mem::replace(&mut self.sums, [0; K])
+    pub(crate) fn take(&mut self) -> [u32; LANES] {
+        core::mem::replace(&mut self.sums, [0; LANES])
     }
 }
 
@@ -472,19 +505,23 @@ mod tests {
 
     #[test]
     fn lanes_vectors() {
-        // q = [4, 5, 6, 7, 8]: offsets 0, 1, 2 of p = [1, 2, 3].
-        let q = [4u16, 5, 6, 7, 8];
-        let mut lanes = Lanes::<3>::starting(|j| u32::from(q[j]));
-        lanes.feed([1u8, 2, 3].iter(), &q[2..]);
-        assert_eq!(lanes.take(), [32, 38, 44]);
-        assert_eq!(lanes.take(), [0; 3]);
-        // Steps past the end of q read 0.
-        let mut lanes = Lanes::<2>::starting(|j| u32::from(q[j + 3]));
-        lanes.feed([1u16].iter(), &q[4..]);
-        lanes.step(2, 0);
-        assert_eq!(lanes.take(), [7 + 16, 8]);
-        let mut lanes = Lanes::<1>::starting(|_| 0);
-        lanes.feed([255u8; 4].iter(), &[65_535; 4]);
-        assert_eq!(lanes.take(), [4 * 255 * 65_535]);
+        // q = [4, 5, 6, 7, 8, 9, 10, 11, 12]: offsets 0..4 of p = [1, 2, 3]
+        // and of p = [1, 2, 3, 1, 1, 2] (one unrolled round).
+        let q = [4u16, 5, 6, 7, 8, 9, 10, 11, 12];
+        let mut lanes = Lanes::starting(|j| u32::from(q[j]));
+        lanes.feed::<_, false>(&[1u8, 2, 3], &q[3..]);
+        assert_eq!(lanes.take(), [32, 38, 44, 50]);
+        assert_eq!(lanes.take(), [0; 4]);
+        let mut lanes = Lanes::starting(|j| u32::from(q[j]));
+        lanes.feed::<_, true>(&[2u8, 1, 1, 3, 2, 1], &q[3..]);
+        assert_eq!(lanes.take(), [65, 75, 85, 95]);
+        // The window carries over; steps past the end of q read 0.
+        let mut lanes = Lanes::starting(|j| u32::from(q[j + 5]));
+        lanes.feed::<u16, false>(&[1], &q[8..]);
+        lanes = lanes.step(2, 0);
+        assert_eq!(lanes.take(), [9 + 20, 10 + 22, 11 + 24, 12]);
+        let mut lanes = Lanes::starting(|_| 65_535);
+        lanes.feed::<_, false>(&[255u8; 5], &[65_535; 5]);
+        assert_eq!(lanes.take(), [5 * 255 * 65_535; 4]);
     }
 }

@@ -7,7 +7,7 @@
 //! the scale search all match profiles.
 
 use crate::accumulator::Column;
-use crate::math::{parabola_vertex, sqrt_of_product, Lanes};
+use crate::math::{parabola_vertex, sqrt_of_product, Lanes, LANES};
 
 /// A ρ shift and its score: one local maximum of a profile match, or a
 /// column's candidate shift in the translation fit.
@@ -293,9 +293,6 @@ fn keep_maximum(maxima: &mut [Maximum], mut candidate: Maximum) {
     }
 }
 
-/// Shifts per pass of [`Overlap::dots`].
-const LANES: usize = 4;
-
 /// Where a profile (or its mirror) and a column hold votes.
 struct Overlap {
     /// Support of `P` (or `P'`), bins.
@@ -334,7 +331,7 @@ impl Overlap {
         let (lo, hi) = (lo as usize, hi as usize);
         // The window starts at Q[lo + s] (0 left of the column).
         let start = lo as isize + s;
-        let mut lanes = Lanes::<LANES>::starting(|j| {
+        let mut lanes = Lanes::starting(|j| {
             usize::try_from(start + j as isize)
                 .ok()
                 .and_then(|i| column.get(i))
@@ -345,34 +342,48 @@ impl Overlap {
         let bins = hi - lo + 1;
         let q = column.get((start + last) as usize..).unwrap_or(&[]);
         let q = q.get(..bins).unwrap_or(q);
-        if self.mirrored {
+        let p = if self.mirrored {
             // P'[lo..=hi] is P[RHO − hi ..= RHO − lo] reversed.
-            let Some((tail, head)) = profile
-                .get(RHO - hi..=RHO - lo)
-                .and_then(|p| p.split_at_checked(p.len().saturating_sub(q.len())))
-            else {
-                return totals;
-            };
-            for (p, q) in head.rchunks(DOT_CHUNK).zip(q.chunks(DOT_CHUNK)) {
-                lanes.feed(p.iter().rev(), q);
+            profile.get(RHO - hi..=RHO - lo)
+        } else {
+            profile.get(lo..=hi)
+        };
+        let Some(p) = p else {
+            return totals;
+        };
+        // The bins of P in step with those of Q (the first `q.len()`),
+        // DOT_CHUNK at a time, then those in step with the end of Q.
+        let tail = p.len().saturating_sub(q.len());
+        let (mut head, mut rest) = (p, q);
+        if self.mirrored {
+            while let (Some((p_rest, p)), Some((q, q_rest))) = (
+                head.split_at_checked(head.len().saturating_sub(DOT_CHUNK).max(tail)),
+                rest.split_at_checked(rest.len().min(DOT_CHUNK)),
+            ) {
+                if q.is_empty() {
+                    break;
+                }
+                lanes.feed::<_, true>(p, q);
                 add(&mut totals, lanes.take());
+                (head, rest) = (p_rest, q_rest);
             }
-            for &p in tail.iter().rev() {
-                lanes.step(u32::from(p), 0);
+            for &p in head.iter().rev() {
+                lanes = lanes.step(u32::from(p), 0);
             }
         } else {
-            let Some((head, tail)) = profile
-                .get(lo..=hi)
-                .and_then(|p| p.split_at_checked(q.len()))
-            else {
-                return totals;
-            };
-            for (p, q) in head.chunks(DOT_CHUNK).zip(q.chunks(DOT_CHUNK)) {
-                lanes.feed(p.iter(), q);
+            while let (Some((p, p_rest)), Some((q, q_rest))) = (
+                head.split_at_checked(head.len().saturating_sub(tail).min(DOT_CHUNK)),
+                rest.split_at_checked(rest.len().min(DOT_CHUNK)),
+            ) {
+                if q.is_empty() {
+                    break;
+                }
+                lanes.feed::<_, false>(p, q);
                 add(&mut totals, lanes.take());
+                (head, rest) = (p_rest, q_rest);
             }
-            for &p in tail {
-                lanes.step(u32::from(p), 0);
+            for &p in head {
+                lanes = lanes.step(u32::from(p), 0);
             }
         }
         add(&mut totals, lanes.take());
