@@ -311,31 +311,27 @@ impl Lanes {
             return;
         };
         let mut lanes = *self;
-        let q4 = q.chunks_exact(4);
-        let q_rest = q4.remainder();
+        let q2 = q.chunks_exact(2);
+        let q_rest = q2.remainder();
         if REVERSED {
-            let p4 = p.rchunks_exact(4);
-            let p_rest = p4.remainder();
-            for (p, q) in p4.zip(q4) {
-                if let (&[p3, p2, p1, p0], &[q0, q1, q2, q3]) = (p, q) {
+            let p2 = p.rchunks_exact(2);
+            let p_rest = p2.remainder();
+            for (p, q) in p2.zip(q2) {
+                if let (&[p1, p0], &[q0, q1]) = (p, q) {
                     lanes = lanes.step(p0.into(), q0.into());
                     lanes = lanes.step(p1.into(), q1.into());
-                    lanes = lanes.step(p2.into(), q2.into());
-                    lanes = lanes.step(p3.into(), q3.into());
                 }
             }
             for (&p, &q) in p_rest.iter().rev().zip(q_rest) {
                 lanes = lanes.step(p.into(), q.into());
             }
         } else {
-            let p4 = p.chunks_exact(4);
-            let p_rest = p4.remainder();
-            for (p, q) in p4.zip(q4) {
-                if let (&[p0, p1, p2, p3], &[q0, q1, q2, q3]) = (p, q) {
+            let p2 = p.chunks_exact(2);
+            let p_rest = p2.remainder();
+            for (p, q) in p2.zip(q2) {
+                if let (&[p0, p1], &[q0, q1]) = (p, q) {
                     lanes = lanes.step(p0.into(), q0.into());
                     lanes = lanes.step(p1.into(), q1.into());
-                    lanes = lanes.step(p2.into(), q2.into());
-                    lanes = lanes.step(p3.into(), q3.into());
                 }
             }
             for (&p, &q) in p_rest.iter().zip(q_rest) {
