@@ -7,7 +7,7 @@
 //! `den = sqrt((nΣD1² − (ΣD1)²)(nΣD2² − (ΣD2)²))`; only `num` varies with `k`,
 //! so peaks are found on `num` and only they are divided.
 
-use crate::math::{insert_sorted, parabola_vertex, Lanes, LANES};
+use crate::math::{dot_u32, insert_sorted, parabola_vertex};
 use crate::Score;
 use heapless::Vec;
 
@@ -73,36 +73,37 @@ impl Correlation {
         let max1 = u64::from(d1.iter().copied().max().unwrap_or(0));
         let max2 = u64::from(d2.iter().copied().max().unwrap_or(0));
         let narrow = max1 * max2 * HALF as u64 <= u64::from(u32::MAX);
-        // num(k + j mod HALF) for the LANES shifts j.
-        let nums = |k: usize| -> [i64; LANES] {
-            let dots = if narrow {
-                circular_dots(d1, d2, k).map(u64::from)
+        let num = |k: usize| -> i64 {
+            // Σ_i d1[i] · d2[(i + k) mod HALF], as two straight runs.
+            let (d1_head, d1_tail) = d1.split_at(HALF - k);
+            let (d2_head, d2_tail) = d2.split_at(k);
+            let dot = if narrow {
+                u64::from(dot_u32(d1_head.iter(), d2_tail) + dot_u32(d1_tail.iter(), d2_head))
             } else {
-                core::array::from_fn(|j| circular_dot_u64(d1, d2, (k + j) % HALF))
+                dot_u64(d1_head, d2_tail) + dot_u64(d1_tail, d2_head)
             };
-            dots.map(|dot| n * dot as i64 - mean_term)
+            n * dot as i64 - mean_term
         };
-        // num(HALF − 1), num(0), …, num(HALF − 1), num(0): each k with its
-        // neighbours, in blocks of LANES.
-        let (mut before, mut value) = (0, 0);
-        for m in (0..HALF + 2).step_by(LANES) {
-            for (m, after) in (m..HALF + 2).zip(nums((HALF - 1 + m) % HALF)) {
-                // A plateau counts once, at its first step.
-                if m >= 2 && value > before && value >= after {
-                    insert_sorted(
-                        &mut peaks,
-                        Peak {
-                            shift: m - 2,
-                            before,
-                            value,
-                            after,
-                        },
-                        |a, b| b.value < a.value,
-                    );
-                }
-                before = value;
-                value = after;
+        let first = num(0);
+        let mut before = num(HALF - 1);
+        let mut value = first;
+        for k in 0..HALF {
+            let after = if k + 1 < HALF { num(k + 1) } else { first };
+            // A plateau counts once, at its first step.
+            if value > before && value >= after {
+                insert_sorted(
+                    &mut peaks,
+                    Peak {
+                        shift: k,
+                        before,
+                        value,
+                        after,
+                    },
+                    |a, b| b.value < a.value,
+                );
             }
+            before = value;
+            value = after;
         }
         Self {
             peaks,
@@ -140,35 +141,6 @@ impl Correlation {
 pub(crate) fn circular_distance(a: usize, b: usize, period: usize) -> usize {
     let d = a.abs_diff(b) % period.max(1);
     d.min(period - d)
-}
-
-/// `Σ_i d1[i] · d2[(i + k + j) mod HALF]` for the [`LANES`] shifts `k + j`,
-/// `k < HALF`, in one pass ([`Lanes`]), as two straight runs of `d2`. Exact
-/// when each sum is below 2³² (the caller checks).
-fn circular_dots<const HALF: usize>(d1: &[u16; HALF], d2: &[u16; HALF], k: usize) -> [u32; LANES] {
-    let at = |i: usize| {
-        i.checked_rem(HALF)
-            .and_then(|i| d2.get(i))
-            .map_or(0, |&v| u32::from(v))
-    };
-    let mut lanes = Lanes::starting(|j| at(k + j));
-    // d2[(i + k + LANES − 1) mod HALF] in step with d1[i].
-    let start = (k + LANES - 1).checked_rem(HALF).unwrap_or(0);
-    if let (Some((d1_head, d1_tail)), Some((d2_head, d2_tail))) = (
-        d1.split_at_checked(HALF - start),
-        d2.split_at_checked(start),
-    ) {
-        lanes.feed::<_, false>(d1_head, d2_tail);
-        lanes.feed::<_, false>(d1_tail, d2_head);
-    }
-    lanes.take()
-}
-
-/// `Σ_i d1[i] · d2[(i + k) mod HALF]` in `u64`, `k < HALF`.
-fn circular_dot_u64<const HALF: usize>(d1: &[u16; HALF], d2: &[u16; HALF], k: usize) -> u64 {
-    let (d1_head, d1_tail) = d1.split_at_checked(HALF - k).unwrap_or((d1, &[]));
-    let (d2_head, d2_tail) = d2.split_at_checked(k).unwrap_or((&[], d2));
-    dot_u64(d1_head, d2_tail) + dot_u64(d1_tail, d2_head)
 }
 
 /// `Σ a·b` in `u64`.

@@ -250,6 +250,20 @@ pub(crate) fn sort_descending<T: Copy>(items: &mut [T], key: impl Fn(&T) -> u32)
     }
 }
 
+/// `Σ p·q` in `u32`, wrapping: exact when the caller has bounded the sum
+/// below 2³² (the correlation: `HALF ≤ 2¹¹` products of two-bin peaks
+/// bounded by the configuration). The 4-lane [`Lanes`] was measured slower
+/// here on the Cortex-M0 (188 k → 252 k instructions a correlation).
+#[inline]
+pub(crate) fn dot_u32<'a, P: Copy + Into<u32> + 'a>(
+    p: impl Iterator<Item = &'a P>,
+    q: &[u16],
+) -> u32 {
+    p.zip(q)
+        .map(|(&x, &y)| x.into() * u32::from(y))
+        .fold(0u32, u32::wrapping_add)
+}
+
 /// Shifts per pass of [`Lanes`].
 pub(crate) const LANES: usize = 4;
 
@@ -261,8 +275,8 @@ pub(crate) const LANES: usize = 4;
 /// every multiply-add.
 ///
 /// The sums are `u32`, wrapping: exact while the caller bounds each below
-/// 2³² (at most 256 products of a `u8` and a `u16`, or `HALF ≤ 2¹¹` products
-/// of two-bin peaks bounded by the configuration), then [`Lanes::take`]n.
+/// 2³² (the profile match: at most 256 products of a `u8` and a `u16`
+/// between two [`Lanes::take`]s).
 #[derive(Clone, Copy)]
 pub(crate) struct Lanes {
     /// `q[i + j]` for `j < LANES − 1` before the step of `i`.
@@ -497,6 +511,13 @@ mod tests {
         let mut v = [(1u32, 'a'), (3, 'b'), (1, 'c'), (2, 'd')];
         sort_descending(&mut v, |x| x.0);
         assert_eq!(v, [(3, 'b'), (2, 'd'), (1, 'a'), (1, 'c')]);
+    }
+
+    #[test]
+    fn dot_u32_vectors() {
+        assert_eq!(dot_u32([1u8, 2, 3].iter(), &[4, 5, 6]), 32);
+        assert_eq!(dot_u32([1u16, 2].iter(), &[7, 8, 9]), 23);
+        assert_eq!(dot_u32([255u8; 4].iter(), &[65_535; 4]), 4 * 255 * 65_535);
     }
 
     #[test]
