@@ -156,12 +156,7 @@ pub(crate) fn match_curve<const RHO: usize>(
     }
     // 0 after the window closes the last maximum.
     scan.push(0, s_max + 1);
-    let Scan {
-        best: (peak, s),
-        mut near,
-        maxima,
-        ..
-    } = scan;
+    let (peak, s) = scan.best;
     if peak == 0 {
         return none;
     }
@@ -174,7 +169,8 @@ pub(crate) fn match_curve<const RHO: usize>(
         }
     };
     let mut runners_up = [Shift::default(); RUNNERS_UP];
-    let others = maxima
+    let others = scan
+        .maxima
         .iter()
         .filter(|m| m.dot > 0 && (m.shift - s).abs() > RUNNER_UP_SEPARATION as isize);
     for (slot, m) in runners_up.iter_mut().zip(others) {
@@ -191,6 +187,7 @@ pub(crate) fn match_curve<const RHO: usize>(
         };
     }
     // The dot products at s − 2 ..= s + 2 (the middle one is the peak).
+    let mut near = scan.near;
     for (k, d) in near.iter_mut().enumerate() {
         *d = dot_at(s + k as isize - CURVE_RADIUS as isize, *d);
     }
