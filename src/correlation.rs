@@ -179,6 +179,83 @@ mod tests {
         assert!(c.rival(2).is_some_and(|r| c.score(r) < Score::ONE));
     }
 
+    /// The correlation as first written: `num(k)` by the plain circular
+    /// double loop, one `k` at a time.
+    fn plain<const HALF: usize>(d1: &[u16; HALF], d2: &[u16; HALF]) -> Correlation {
+        let n = HALF as i64;
+        let (sum1, sq1) = moments(d1);
+        let (sum2, sq2) = moments(d2);
+        let var1 = (n as u64 * sq1).saturating_sub(sum1 * sum1);
+        let var2 = (n as u64 * sq2).saturating_sub(sum2 * sum2);
+        let denominator = (u128::from(var1) * u128::from(var2)).isqrt() as u64;
+        let mut peaks = Vec::new();
+        if denominator == 0 || HALF < 3 {
+            return Correlation {
+                peaks,
+                denominator: 0,
+                half: HALF,
+            };
+        }
+        let num = |k: usize| {
+            let dot: u64 = (0..HALF)
+                .map(|i| u64::from(d1[i]) * u64::from(d2[(i + k) % HALF]))
+                .sum();
+            n * dot as i64 - (sum1 * sum2) as i64
+        };
+        for k in 0..HALF {
+            let (before, value, after) = (num((k + HALF - 1) % HALF), num(k), num((k + 1) % HALF));
+            if value > before && value >= after {
+                let peak = Peak {
+                    shift: k,
+                    before,
+                    value,
+                    after,
+                };
+                insert_sorted(&mut peaks, peak, |a, b| b.value < a.value);
+            }
+        }
+        Correlation {
+            peaks,
+            denominator,
+            half: HALF,
+        }
+    }
+
+    fn agrees_on_random<const HALF: usize>(cases: usize) {
+        let mut state = 0x2545_f491_4f6c_dd1d ^ HALF as u64;
+        let mut next = move |n: u64| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state % n.max(1)
+        };
+        for _ in 0..cases {
+            // Small values (narrow u32 sums), the largest (wide u64 sums),
+            // plateaus of few levels, and constant signatures.
+            let top = [3, 40, 2000, 65_535][next(4) as usize];
+            let d1: [u16; HALF] = core::array::from_fn(|_| next(top + 1) as u16);
+            let d2: [u16; HALF] = core::array::from_fn(|_| next(top + 1) as u16);
+            assert_eq!(Correlation::of(&d1, &d2), plain(&d1, &d2), "{d1:?}\n{d2:?}");
+            let mut rotated = d1;
+            rotated.rotate_right(next(HALF as u64) as usize);
+            assert_eq!(Correlation::of(&d1, &rotated), plain(&d1, &rotated));
+        }
+    }
+
+    /// Every peak (shift, neighbours, order) and the denominator equal the
+    /// plain loop's, for `HALF` below, at and above a multiple of the lanes.
+    #[test]
+    fn agrees_with_the_plain_loop() {
+        agrees_on_random::<1>(4);
+        agrees_on_random::<3>(200);
+        agrees_on_random::<4>(200);
+        agrees_on_random::<5>(200);
+        agrees_on_random::<7>(200);
+        agrees_on_random::<64>(100);
+        agrees_on_random::<180>(30);
+        agrees_on_random::<181>(10);
+    }
+
     #[test]
     fn constant_signature_has_no_peaks() {
         let c = Correlation::of(&[3u16; 10], &[1, 2, 3, 4, 5, 6, 7, 8, 9, 0]);

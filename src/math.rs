@@ -233,8 +233,9 @@ pub(crate) fn sort_descending<T: Copy>(items: &mut [T], key: impl Fn(&T) -> u32)
 }
 
 /// `Σ p·q` in `u32`, wrapping: exact when the caller has bounded the sum
-/// below 2³² (e.g. at most 256 products of a `u8` and a `u16`, or
-/// `HALF ≤ 2¹¹` products of two-bin peaks bounded by the configuration).
+/// below 2³² (the correlation: `HALF ≤ 2¹¹` products of two-bin peaks
+/// bounded by the configuration). The 4-lane [`Lanes`] was measured slower
+/// here on the Cortex-M0 (188 k → 252 k instructions a correlation).
 #[inline]
 pub(crate) fn dot_u32<'a, P: Copy + Into<u32> + 'a>(
     p: impl Iterator<Item = &'a P>,
@@ -243,6 +244,105 @@ pub(crate) fn dot_u32<'a, P: Copy + Into<u32> + 'a>(
     p.zip(q)
         .map(|(&x, &y)| x.into() * u32::from(y))
         .fold(0u32, u32::wrapping_add)
+}
+
+/// Shifts per pass of [`Lanes`].
+pub(crate) const LANES: usize = 4;
+
+/// [`LANES`] dot products in one pass: `Σ_i p[i]·q[i + j]` for the
+/// consecutive offsets `j = 0..LANES` of `q` (a block of shifts of a
+/// cross-correlation). Each value of `q` is loaded once and kept in a
+/// sliding window, so a step costs one load of `p`, one of `q` and
+/// `LANES` multiply-adds, where separate dot products load both values for
+/// every multiply-add.
+///
+/// The sums are `u32`, wrapping: exact while the caller bounds each below
+/// 2³² (the profile match: at most 256 products of a `u8` and a `u16`
+/// between two [`Lanes::take`]s).
+#[derive(Clone, Copy)]
+pub(crate) struct Lanes {
+    /// `q[i + j]` for `j < LANES − 1` before the step of `i`.
+    window: [u32; LANES - 1],
+    /// The partial sums.
+    sums: [u32; LANES],
+}
+
+impl Lanes {
+    /// Lanes about to step through `i = i0, i0 + 1, …`: `lead(j)` is
+    /// `q[i0 + j]` for `j < LANES − 1` (0 where `q` has no such index).
+    #[inline(always)]
+    pub(crate) fn starting(lead: impl Fn(usize) -> u32) -> Self {
+        Self {
+            window: [lead(0), lead(1), lead(2)],
+            sums: [0; LANES],
+        }
+    }
+
+    /// One step: `p = p[i]`, `q = q[i + LANES − 1]`. By value, so that the
+    /// lanes live in registers.
+    #[inline(always)]
+    #[must_use]
+    pub(crate) fn step(self, p: u32, q: u32) -> Self {
+        let [w0, w1, w2] = self.window;
+        let [s0, s1, s2, s3] = self.sums;
+        let mac = |s: u32, w: u32| s.wrapping_add(p.wrapping_mul(w));
+        Self {
+            window: [w1, w2, q],
+            sums: [mac(s0, w0), mac(s1, w1), mac(s2, w2), mac(s3, q)],
+        }
+    }
+
+    /// Steps through `p` (backwards when `REVERSED`) and `q`
+    /// (`q[i + LANES − 1]` in step with the `i`-th value of `p`) until
+    /// either ends. Unrolled by 2 (by 4, or not at all, measured up to 1 %
+    /// apart on the Cortex-M4F; the lanes then spill to the stack).
+    #[inline(always)]
+    pub(crate) fn feed<P: Copy + Into<u32>, const REVERSED: bool>(&mut self, p: &[P], q: &[u16]) {
+        let n = p.len().min(q.len());
+        let p = if REVERSED {
+            p.get(p.len() - n..)
+        } else {
+            p.get(..n)
+        };
+        let (Some(p), Some(q)) = (p, q.get(..n)) else {
+            return;
+        };
+        let mut lanes = *self;
+        let q2 = q.chunks_exact(2);
+        let q_rest = q2.remainder();
+        if REVERSED {
+            let p2 = p.rchunks_exact(2);
+            let p_rest = p2.remainder();
+            for (p, q) in p2.zip(q2) {
+                if let (&[p1, p0], &[q0, q1]) = (p, q) {
+                    lanes = lanes.step(p0.into(), q0.into());
+                    lanes = lanes.step(p1.into(), q1.into());
+                }
+            }
+            for (&p, &q) in p_rest.iter().rev().zip(q_rest) {
+                lanes = lanes.step(p.into(), q.into());
+            }
+        } else {
+            let p2 = p.chunks_exact(2);
+            let p_rest = p2.remainder();
+            for (p, q) in p2.zip(q2) {
+                if let (&[p0, p1], &[q0, q1]) = (p, q) {
+                    lanes = lanes.step(p0.into(), q0.into());
+                    lanes = lanes.step(p1.into(), q1.into());
+                }
+            }
+            for (&p, &q) in p_rest.iter().zip(q_rest) {
+                lanes = lanes.step(p.into(), q.into());
+            }
+        }
+        *self = lanes;
+    }
+
+    /// The sums so far; they restart from 0 (the window is kept).
+    #[inline(always)]
+    pub(crate) fn take(&mut self) -> [u32; LANES] {
+        core::mem::replace(&mut self.sums, [0; LANES])
+    }
 }
 
 #[cfg(test)]
@@ -397,5 +497,27 @@ mod tests {
         assert_eq!(dot_u32([1u8, 2, 3].iter(), &[4, 5, 6]), 32);
         assert_eq!(dot_u32([1u16, 2].iter(), &[7, 8, 9]), 23);
         assert_eq!(dot_u32([255u8; 4].iter(), &[65_535; 4]), 4 * 255 * 65_535);
+    }
+
+    #[test]
+    fn lanes_vectors() {
+        // q = [4, 5, 6, 7, 8, 9, 10, 11, 12]: offsets 0..4 of p = [1, 2, 3]
+        // and of p = [1, 2, 3, 1, 1, 2] (unrolled rounds, backwards).
+        let q = [4u16, 5, 6, 7, 8, 9, 10, 11, 12];
+        let mut lanes = Lanes::starting(|j| u32::from(q[j]));
+        lanes.feed::<_, false>(&[1u8, 2, 3], &q[3..]);
+        assert_eq!(lanes.take(), [32, 38, 44, 50]);
+        assert_eq!(lanes.take(), [0; 4]);
+        let mut lanes = Lanes::starting(|j| u32::from(q[j]));
+        lanes.feed::<_, true>(&[2u8, 1, 1, 3, 2, 1], &q[3..]);
+        assert_eq!(lanes.take(), [65, 75, 85, 95]);
+        // The window carries over; steps past the end of q read 0.
+        let mut lanes = Lanes::starting(|j| u32::from(q[j + 5]));
+        lanes.feed::<u16, false>(&[1], &q[8..]);
+        lanes = lanes.step(2, 0);
+        assert_eq!(lanes.take(), [9 + 20, 10 + 22, 11 + 24, 12]);
+        let mut lanes = Lanes::starting(|_| 65_535);
+        lanes.feed::<_, false>(&[255u8; 5], &[65_535; 5]);
+        assert_eq!(lanes.take(), [5 * 255 * 65_535; 4]);
     }
 }
