@@ -59,45 +59,18 @@ impl ColumnStats {
 /// the next one without a second pass or a `memset`.
 fn take_stats(bins: &mut [u16], offset: usize, kind: PeakKind) -> ColumnStats {
     match kind {
-        PeakKind::SingleBin => take_single_bin(bins, offset),
+        PeakKind::SingleBin => {
+            let stats = ColumnStats {
+                peak: bins.iter().copied().max().unwrap_or(0),
+                asymmetry: asymmetry(bins, offset),
+            };
+            bins.fill(0);
+            stats
+        }
         PeakKind::TwoBin => ColumnStats {
             peak: take_two_bin_peak(bins),
             asymmetry: 0,
         },
-    }
-}
-
-/// [`ColumnStats::of`] for [`PeakKind::SingleBin`] of the bins
-/// `offset..offset + bins.len()` (every other bin 0), zeroing `bins`, in one
-/// pass without a branch or a multiply per bin: the first and last bins
-/// holding votes are found by scans from either end (short: `bins` is the
-/// span of the votes), and the moment `Σ i·A[i]` (`i` from 0) as
-/// `n·votes − Σ_i P_i` with the running sums `P_i = Σ_{j ≤ i} A[j]` (an add
-/// and a 64-bit add per bin instead of a 32 × 32 → 64-bit multiply, a
-/// library call on Cortex-M0). The same integers as [`asymmetry`], hence the
-/// same result.
-fn take_single_bin(bins: &mut [u16], offset: usize) -> ColumnStats {
-    let first = bins.iter().position(|&a| a != 0);
-    let last = bins.iter().rposition(|&a| a != 0);
-    let mut peak = 0u16;
-    let mut votes = 0u32;
-    let mut prefixes = 0u64;
-    for a in bins.iter_mut() {
-        peak = peak.max(*a);
-        // At most `bins.len() · u16::MAX < 2³¹` (RHO ≤ 2¹⁵): no overflow.
-        votes += u32::from(*a);
-        prefixes += u64::from(votes);
-        *a = 0;
-    }
-    let (Some(first), Some(last)) = (first, last) else {
-        return ColumnStats { peak, asymmetry: 0 };
-    };
-    let votes = u64::from(votes);
-    // Σ_b b·A[b] over b = offset + i.
-    let moment = (offset + bins.len()) as u64 * votes - prefixes;
-    ColumnStats {
-        peak,
-        asymmetry: centred_asymmetry(offset + first, offset + last, votes, moment),
     }
 }
 
@@ -155,12 +128,6 @@ fn asymmetry(bins: &[u16], offset: usize) -> i16 {
             moment += u64::from(a) * b as u64;
         }
     }
-    centred_asymmetry(first, last, votes, moment)
-}
-
-/// `s(θ)` (see [`asymmetry`]) from the first and last bins holding votes,
-/// the votes `Σ A[b]` and the moment `Σ b·A[b]` (`b`: bin index).
-fn centred_asymmetry(first: usize, last: usize, votes: u64, moment: u64) -> i16 {
     let width = last.saturating_sub(first) as i64;
     if votes == 0 || width == 0 {
         return 0;
@@ -381,42 +348,6 @@ mod tests {
                 assert_eq!(take_stats(&mut taken[low..=high], low, kind), expected);
                 assert_eq!(taken, [0; 16]);
             }
-        }
-    }
-
-    /// The fused single-bin reduction against [`ColumnStats::of`] on long
-    /// columns, sparse to full, with votes up to `u16::MAX`.
-    #[test]
-    fn take_single_bin_equals_of_on_long_columns() {
-        let mut state = 0x1405_7b7e_f767_814fu64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 33) as usize
-        };
-        for round in 0..400 {
-            let low = next() % 512;
-            let high = (low + next() % 512).min(511);
-            let mut col = [0u16; 512];
-            let sparse = round % 4 + 1;
-            let big = round % 3 == 0;
-            for a in &mut col[low..=high] {
-                if next() % sparse == 0 {
-                    *a = if big {
-                        (next() % 65_536) as u16
-                    } else {
-                        (next() % 40) as u16
-                    };
-                }
-            }
-            let expected = ColumnStats::of(&col, PeakKind::SingleBin);
-            let mut taken = col;
-            assert_eq!(
-                take_stats(&mut taken[low..=high], low, PeakKind::SingleBin),
-                expected
-            );
-            assert_eq!(taken, [0; 512]);
         }
     }
 
