@@ -76,30 +76,24 @@ fn take_stats(bins: &mut [u16], offset: usize, kind: PeakKind) -> ColumnStats {
 
 /// [`two_bin_peak`] of `bins` with zeros on both sides (the pairs across
 /// either end are then a single bin, never more than an inner pair when
-/// `bins.len() ≥ 2`), zeroing `bins`. Four bins per step: with `p` the bin
-/// before them, the pairs `p + a, a + b, b + c, c + d` peak at
-/// `max(a + max(p, b), c + max(b, d))`, two adds for four pairs (the max per
-/// pair stays: one per candidate is the least a maximum of them needs).
+/// `bins.len() ≥ 2`), zeroing `bins`. Two bins per step.
 fn take_two_bin_peak(bins: &mut [u16]) -> u16 {
     let mut peak = 0u32;
     let mut previous = 0u32;
-    let mut quads = bins.chunks_exact_mut(4);
-    for quad in &mut quads {
-        if let [a, b, c, d] = quad {
-            let (w, x, y, z) = (u32::from(*a), u32::from(*b), u32::from(*c), u32::from(*d));
+    let mut pairs = bins.chunks_exact_mut(2);
+    for pair in &mut pairs {
+        if let [a, b] = pair {
+            let (x, y) = (u32::from(*a), u32::from(*b));
             *a = 0;
             *b = 0;
-            *c = 0;
-            *d = 0;
-            peak = peak.max((w + previous.max(x)).max(y + x.max(z)));
-            previous = z;
+            peak = peak.max(previous + x).max(x + y);
+            previous = y;
         }
     }
-    for a in quads.into_remainder() {
+    for a in pairs.into_remainder() {
         let x = u32::from(*a);
         *a = 0;
         peak = peak.max(previous + x);
-        previous = x;
     }
     peak.min(u32::from(u16::MAX)) as u16
 }
