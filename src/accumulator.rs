@@ -145,6 +145,12 @@ pub const MAX_INV_SCALE_Q16: u32 = 2 << 16;
 ///
 /// Positions stay in `i32`: with `inv_scale ≤ 2`, `|cos|, |sin| ≤ 2¹⁵` (Q15)
 /// and `W, H ≤ 2048` every term is below 2²⁸, the sum below 7·10⁸.
+///
+/// When no cell of the grid can reach the column's last bin or below 0
+/// (always at unit scale: `rho_bins` leaves that margin), the votes need no
+/// check: the loop of [`vote_column_pair`] is used (positions scaled so that
+/// the bin is the top bits of a `u32`, empty words skipped, the lowest-bit
+/// look-up on ARMv6-M); otherwise every bin is checked as described above.
 pub fn vote_column_split<
     const W: usize,
     const H: usize,
