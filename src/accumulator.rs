@@ -148,7 +148,7 @@ pub const MAX_INV_SCALE_Q16: u32 = 2 << 16;
 ///
 /// When no cell of the grid can reach the column's last bin or below 0
 /// (always at unit scale: `rho_bins` leaves that margin), the votes need no
-/// check: the loop of [`vote_column_pair`] is used (positions scaled so that
+/// check, and the loop works as [`vote_column_pair`]'s (positions scaled so that
 /// the bin is the top bits of a `u32`, empty words skipped, the lowest-bit
 /// look-up on ARMv6-M); otherwise every bin is checked as described above.
 pub fn vote_column_split<
