@@ -145,6 +145,12 @@ pub const MAX_INV_SCALE_Q16: u32 = 2 << 16;
 ///
 /// Positions stay in `i32`: with `inv_scale ≤ 2`, `|cos|, |sin| ≤ 2¹⁵` (Q15)
 /// and `W, H ≤ 2048` every term is below 2²⁸, the sum below 7·10⁸.
+///
+/// When no cell of the grid can reach the column's last bin or below 0
+/// (always at unit scale: `rho_bins` leaves that margin), the votes need no
+/// check, and the loop works as [`vote_column_pair`]'s (positions scaled so that
+/// the bin is the top bits of a `u32`, empty words skipped, the lowest-bit
+/// look-up on ARMv6-M); otherwise every bin is checked as described above.
 pub fn vote_column_split<
     const W: usize,
     const H: usize,
@@ -157,39 +163,159 @@ pub fn vote_column_split<
     inv_scale_q16: u32,
     column: &mut Column<RHO>,
 ) {
+    split_vote::<W, H, RW, N, RHO, FAST_CTZ>(grid, k, inv_scale_q16, column);
+}
+
+/// [`vote_column_split`] finding the cells of a word with `trailing_zeros`
+/// or with [`lowest_bit_index`] (`CTZ`, see [`FAST_CTZ`]): the same votes
+/// either way (both are tested on the host).
+#[inline(always)]
+fn split_vote<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const RHO: usize,
+    const CTZ: bool,
+>(
+    grid: &Grid<W, H, RW>,
+    k: usize,
+    inv_scale_q16: u32,
+    column: &mut Column<RHO>,
+) {
     const { check_column::<W, H, RW, N, RHO>() };
     let table = &TrigTable::<N>::TABLE;
     let inv_scale = i64::from(inv_scale_q16.min(MAX_INV_SCALE_Q16));
     // Q15 × Q16 → Q15, |result| ≤ 2¹⁶.
     let scaled = |v: i32| ((i64::from(v) * inv_scale) >> 16) as i32;
     let (c, s) = (scaled(table.cos(k)), scaled(table.sin(k)));
+    // Q16 position of the image centre, plus half a share so that `f`
+    // rounds to the nearest quarter (truncating would move every line by
+    // −⅛ bin).
+    let centre = ((RHO as i32 / 2) << 16) + (1 << (15 - SPLIT_VOTE_BITS));
+    // Farthest any cell's position lies from the centre (Q16): the
+    // positions are linear in the doubled coordinates `|X| ≤ W − 1`,
+    // `|Y| ≤ H − 1`.
+    let reach = (W as i32 - 1) * c.abs() + (H as i32 - 1) * s.abs();
+    if centre - reach >= 0 && centre + reach < (RHO as i32 - 1) << 16 {
+        // Every vote and its upper neighbour `⌊u⌋ + 1` are inside the
+        // column: nothing to drop (always so at unit scale).
+        split_in_range::<W, H, RW, RHO, CTZ>(grid, c, s, centre, column);
+    } else {
+        split_checked::<W, H, RW, RHO, CTZ>(grid, c, s, centre, column);
+    }
+}
+
+/// The lowest set bit's index of `bits ≠ 0`, with `trailing_zeros` or
+/// [`lowest_bit_index`] (see [`FAST_CTZ`]).
+#[inline(always)]
+fn lowest_bit<const CTZ: bool>(bits: u32) -> u32 {
+    if CTZ {
+        bits.trailing_zeros()
+    } else {
+        lowest_bit_index(bits)
+    }
+}
+
+/// [`vote_column_split`] when every position `u` of a cell of the grid
+/// satisfies `0 ≤ u < (RHO − 1)·2¹⁶` (Q16; `c`, `s`: scaled Q15 cosine and
+/// sine, `centre`: Q16 position of the image centre): both bins of every
+/// vote are in the column. Positions are scaled by `2^(16 − log2 RHO)` so
+/// that the bin is the top bits of a `u32` and the share `f` the two bits
+/// below (no bounds check for `⌊u⌋`; `⌊u⌋ + 1` masked with `RHO − 1`, which
+/// never changes it here); empty words cost a load and a branch.
+#[inline(always)]
+fn split_in_range<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const RHO: usize,
+    const CTZ: bool,
+>(
+    grid: &Grid<W, H, RW>,
+    c: i32,
+    s: i32,
+    centre: i32,
+    column: &mut Column<RHO>,
+) {
+    let bits_of_bin = RHO.trailing_zeros();
+    let scale = 16 - bits_of_bin;
+    // Exact: every position is in [0, RHO·2¹⁶), so shifting loses no bit.
+    let q = |v: i32| (v as u32) << scale;
+    let step = q(2 * c);
+    let down = q(2 * s);
+    let shift = 32 - bits_of_bin;
+    let fraction_shift = shift - SPLIT_VOTE_BITS;
+    let fraction_mask = (1u32 << SPLIT_VOTE_BITS) - 1;
+    let one = 1u16 << SPLIT_VOTE_BITS;
+    let mut row_base = q(centre - (W as i32 - 1) * c + (H as i32 - 1) * s);
+    for row in grid.words() {
+        for (j, &word) in row.iter().enumerate() {
+            if word != 0 {
+                let base = row_base.wrapping_add((32 * j as u32).wrapping_mul(step));
+                let mut bits = word;
+                while bits != 0 {
+                    let u = base.wrapping_add(lowest_bit::<CTZ>(bits).wrapping_mul(step));
+                    let b = (u >> shift) as usize;
+                    let f = ((u >> fraction_shift) & fraction_mask) as u16;
+                    if let Some(a) = column.get_mut(b) {
+                        *a = a.saturating_add(one - f);
+                    }
+                    if let Some(a) = column.get_mut((b + 1) & (RHO - 1)) {
+                        *a = a.saturating_add(f);
+                    }
+                    bits &= bits - 1;
+                }
+            }
+        }
+        row_base = row_base.wrapping_sub(down);
+    }
+}
+
+/// [`vote_column_split`] with a bounds check per bin: a vote whose position
+/// `u` (Q16) is negative is dropped, one at `⌊u⌋ ≥ RHO − 1` keeps only its
+/// shares inside the column. Empty words cost a load and a branch.
+#[inline(always)]
+fn split_checked<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const RHO: usize,
+    const CTZ: bool,
+>(
+    grid: &Grid<W, H, RW>,
+    c: i32,
+    s: i32,
+    centre: i32,
+    column: &mut Column<RHO>,
+) {
     let step = 2 * c;
     let one = 1u16 << SPLIT_VOTE_BITS;
     let fraction_shift = 16 - SPLIT_VOTE_BITS;
     let fraction_mask = (1i32 << SPLIT_VOTE_BITS) - 1;
-    // Q16 position of column 0 of row 0, plus half a share so that `f`
-    // rounds to the nearest quarter (truncating would move every line by
-    // −⅛ bin).
-    let row_start = ((RHO as i32 / 2) << 16) + (1 << (fraction_shift - 1)) - (W as i32 - 1) * c;
+    let row_start = centre - (W as i32 - 1) * c;
     let mut y2 = H as i32 - 1;
-    for words in grid.words() {
-        let mut word_base = row_start + y2 * s;
-        for &word in words {
-            let mut bits = word;
-            while bits != 0 {
-                let u = word_base + bits.trailing_zeros() as i32 * step;
-                let f = ((u >> fraction_shift) & fraction_mask) as u16;
-                if let Ok(b) = usize::try_from(u >> 16) {
+    for row in grid.words() {
+        let row_base = row_start + y2 * s;
+        for (j, &word) in row.iter().enumerate() {
+            if word != 0 {
+                let base = row_base + 32 * j as i32 * step;
+                let mut bits = word;
+                while bits != 0 {
+                    let u = base + lowest_bit::<CTZ>(bits) as i32 * step;
+                    let f = ((u >> fraction_shift) & fraction_mask) as u16;
+                    // A negative `u` reads as at least 2³¹, its bin at least
+                    // 2¹⁵ ≥ RHO: both shares dropped.
+                    let b = (u as u32 >> 16) as usize;
                     if let Some(a) = column.get_mut(b) {
                         *a = a.saturating_add(one - f);
                     }
                     if let Some(a) = column.get_mut(b + 1) {
                         *a = a.saturating_add(f);
                     }
+                    bits &= bits - 1;
                 }
-                bits &= bits - 1;
             }
-            word_base += 32 * step;
         }
         y2 -= 2;
     }
@@ -564,5 +690,142 @@ mod tests {
             vote_column::<8, 4, 1, 16, 16>(&g, k % 16 + 1, &mut b);
             assert_eq!(pair, [a, b], "{k}");
         }
+    }
+
+    /// The old straightforward split vote (every word, running sums, a
+    /// bounds check per bin): the reference for [`split_vote`].
+    fn split_reference<
+        const W: usize,
+        const H: usize,
+        const RW: usize,
+        const N: usize,
+        const RHO: usize,
+    >(
+        grid: &Grid<W, H, RW>,
+        k: usize,
+        inv_scale_q16: u32,
+        column: &mut Column<RHO>,
+    ) {
+        let table = &TrigTable::<N>::TABLE;
+        let inv_scale = i64::from(inv_scale_q16.min(MAX_INV_SCALE_Q16));
+        let scaled = |v: i32| ((i64::from(v) * inv_scale) >> 16) as i32;
+        let (c, s) = (scaled(table.cos(k)), scaled(table.sin(k)));
+        let step = 2 * c;
+        let one = 1u16 << SPLIT_VOTE_BITS;
+        let fraction_shift = 16 - SPLIT_VOTE_BITS;
+        let fraction_mask = (1i32 << SPLIT_VOTE_BITS) - 1;
+        let row_start = ((RHO as i32 / 2) << 16) + (1 << (fraction_shift - 1)) - (W as i32 - 1) * c;
+        let mut y2 = H as i32 - 1;
+        for words in grid.words() {
+            let mut word_base = row_start + y2 * s;
+            for &word in words {
+                let mut bits = word;
+                while bits != 0 {
+                    let u = word_base + bits.trailing_zeros() as i32 * step;
+                    let f = ((u >> fraction_shift) & fraction_mask) as u16;
+                    if let Ok(b) = usize::try_from(u >> 16) {
+                        if let Some(a) = column.get_mut(b) {
+                            *a = a.saturating_add(one - f);
+                        }
+                        if let Some(a) = column.get_mut(b + 1) {
+                            *a = a.saturating_add(f);
+                        }
+                    }
+                    bits &= bits - 1;
+                }
+                word_base += 32 * step;
+            }
+            y2 -= 2;
+        }
+    }
+
+    /// A random grid: each cell occupied with probability `density / 64`.
+    fn random_grid<const W: usize, const H: usize, const RW: usize>(
+        state: &mut u64,
+        density: u64,
+    ) -> Grid<W, H, RW> {
+        let mut words = [[0u32; RW]; H];
+        for w in words.iter_mut().flatten() {
+            for bit in 0..32 {
+                *state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                if (*state >> 58) < density {
+                    *w |= 1 << bit;
+                }
+            }
+        }
+        Grid::from_words(words)
+    }
+
+    /// Both paths of the split vote (in range, checked) with both bit
+    /// extractions against the old loop, on random grids (sparse to full,
+    /// widths that are not a multiple of 32, non-zero starting columns), at
+    /// every `k` and at scales from ¼ to beyond [`MAX_INV_SCALE_Q16`]
+    /// (clamped), where votes fall outside the column.
+    fn split_vote_matches_reference<
+        const W: usize,
+        const H: usize,
+        const RW: usize,
+        const N: usize,
+        const RHO: usize,
+    >(
+        seed: u64,
+    ) {
+        let mut state = seed;
+        let scales = [
+            0,
+            1 << 14,
+            UNIT_SCALE_Q16 - 1,
+            UNIT_SCALE_Q16,
+            UNIT_SCALE_Q16 + 12_345,
+            3 << 15,
+            MAX_INV_SCALE_Q16 - 1,
+            MAX_INV_SCALE_Q16,
+            MAX_INV_SCALE_Q16 + 1,
+            u32::MAX,
+        ];
+        let mut dropped = false;
+        for density in [1u64, 8, 32, 64] {
+            let g = random_grid::<W, H, RW>(&mut state, density);
+            for k in 0..N {
+                for inv in scales {
+                    let start = core::array::from_fn(|b| (b * 7 % 5) as u16);
+                    let mut expected: Column<RHO> = start;
+                    split_reference::<W, H, RW, N, RHO>(&g, k, inv, &mut expected);
+                    let total = |c: &Column<RHO>| c.iter().map(|&v| u32::from(v)).sum::<u32>();
+                    dropped |= total(&expected) - total(&start) < 4 * g.occupied();
+                    let mut native = start;
+                    split_vote::<W, H, RW, N, RHO, true>(&g, k, inv, &mut native);
+                    let mut looked_up = start;
+                    split_vote::<W, H, RW, N, RHO, false>(&g, k, inv, &mut looked_up);
+                    let mut public = start;
+                    vote_column_split::<W, H, RW, N, RHO>(&g, k, inv, &mut public);
+                    assert_eq!(native, expected, "density {density}, k {k}, scale {inv}");
+                    assert_eq!(looked_up, expected, "density {density}, k {k}, scale {inv}");
+                    assert_eq!(public, expected, "density {density}, k {k}, scale {inv}");
+                    // The checked path alone, at every scale (in range too).
+                    let table = &TrigTable::<N>::TABLE;
+                    let inv_scale = i64::from(inv.min(MAX_INV_SCALE_Q16));
+                    let scaled = |v: i32| ((i64::from(v) * inv_scale) >> 16) as i32;
+                    let (c, s) = (scaled(table.cos(k)), scaled(table.sin(k)));
+                    let centre = ((RHO as i32 / 2) << 16) + (1 << (15 - SPLIT_VOTE_BITS));
+                    let mut checked = start;
+                    split_checked::<W, H, RW, RHO, false>(&g, c, s, centre, &mut checked);
+                    assert_eq!(checked, expected, "density {density}, k {k}, scale {inv}");
+                }
+            }
+        }
+        assert!(dropped, "no vote fell outside the column");
+    }
+
+    #[test]
+    fn split_vote_equals_the_plain_loop() {
+        split_vote_matches_reference::<45, 13, 2, 24, { crate::config::rho_bins(45, 13) }>(
+            0x2545_f491_4f6c_dd1d,
+        );
+        split_vote_matches_reference::<64, 64, 2, 36, { crate::config::rho_bins(64, 64) }>(7);
+        split_vote_matches_reference::<100, 37, 4, 60, { crate::config::rho_bins(100, 37) }>(11);
+        split_vote_matches_reference::<8, 4, 1, 16, 16>(3);
     }
 }
