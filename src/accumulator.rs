@@ -404,11 +404,7 @@ fn vote_pair<
                 let base2 = row2.wrapping_add(j.wrapping_mul(step2));
                 let mut bits = word;
                 while bits != 0 {
-                    let col = if CTZ {
-                        bits.trailing_zeros()
-                    } else {
-                        lowest_bit_index(bits)
-                    };
+                    let col = lowest_bit::<CTZ>(bits);
                     let bin1 = base1.wrapping_add(col.wrapping_mul(step1)) >> shift;
                     let bin2 = base2.wrapping_add(col.wrapping_mul(step2)) >> shift;
                     if let Some(v) = bins.get_mut(bin1 as usize) {
