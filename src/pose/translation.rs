@@ -12,7 +12,7 @@
 use fixed::types::I16F16;
 use micromath::F32Ext;
 
-use crate::math::sqrt_f32_fast as sqrt;
+use crate::math::sqrt_f32 as sqrt;
 
 use crate::profile::{Shift, RUNNERS_UP};
 
