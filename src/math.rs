@@ -1,7 +1,6 @@
 //! The maths helpers every stage shares: roots, the parabolic vertex, the
 //! sorted insert, the dot product, and the `const` series that build the
-//! tables. Each states its error bound and has test vectors (the `micromath`
-//! habit). This module is the ground floor: it imports nothing of the crate.
+//! tables. Each states its error bound and has test vectors. This module is the ground floor: it imports nothing of the crate.
 
 use heapless::Vec;
 
@@ -45,21 +44,6 @@ pub(crate) const fn sqrt_f64(v: f64) -> f64 {
     while i < 64 {
         r = 0.5 * (r + v / r);
         i += 1;
-    }
-    r
-}
-
-/// `√v` to about f32 precision (relative error below 2·10⁻⁶):
-/// `micromath`'s estimate (≈ 5 % error) refined by two Newton steps
-/// (relative error squared each step). 0 for `v ≤ 0` and NaN. The
-/// translation fit's root.
-pub(crate) fn sqrt_f32(v: f32) -> f32 {
-    if v.is_nan() || v <= 0.0 {
-        return 0.0;
-    }
-    let mut r = micromath::F32Ext::sqrt(v);
-    for _ in 0..2 {
-        r = 0.5 * (r + v / r);
     }
     r
 }
@@ -388,12 +372,8 @@ mod tests {
     fn float_roots_are_accurate() {
         for v in [1e-6f32, 0.25, 2.0, 9.0, 1234.5, 1e6] {
             let exact = f64::from(v).sqrt();
-            let r = sqrt_f32(v);
-            assert!((f64::from(r) - exact).abs() <= 2e-6 * exact.max(1.0), "{v}");
             assert!((sqrt_f64(f64::from(v)) - exact).abs() <= 1e-15 * exact.max(1.0));
         }
-        assert_eq!(sqrt_f32(-1.0), 0.0);
-        assert_eq!(sqrt_f32(f32::NAN), 0.0);
         assert_eq!(sqrt_f64(-2.0), 0.0);
     }
 

@@ -265,9 +265,9 @@ pub fn outcome(estimate: &Estimate, truth: &Transform, half_turn_symmetric: bool
 
 /// The unit vector along `(ux, uy)` (`(1, 0)` for a zero vector).
 ///
-/// `Pose::unobservable` is documented as a unit vector, but the library
-/// normalises it with `micromath`'s `sqrt` (about 5 % error), so its norm can
-/// be off by a few per cent; the evaluations normalise it again.
+/// `Pose::unobservable` is a unit vector in Q16 (its norm is within a few
+/// units of the last place of 1); the evaluations normalise it again so
+/// that rounding never enters a figure.
 pub fn unobservable_direction(ux: f64, uy: f64) -> (f64, f64) {
     let n = ux.hypot(uy);
     if n > 0.0 {

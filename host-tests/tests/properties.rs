@@ -795,8 +795,8 @@ fn corridor_reports_an_unobservable_direction() {
 /// The reported direction is a unit vector along the walls (within 1°: the
 /// normal of the strongest column is quantized to the θ step). With
 /// `micromath`'s bare `sqrt` (about 5 % error) this failed: norms of
-/// 0.97–0.99 and directions up to 53° off; `translation.rs` now refines it
-/// with two Newton steps.
+/// 0.97–0.99 and directions up to 53° off; `translation.rs` now computes it
+/// in integers (an exact integer square root).
 #[test]
 fn corridor_unobservable_direction_is_a_unit_vector_along_the_walls() {
     for (seed, (truth, e)) in wall_to_wall_corridors().into_iter().enumerate() {

@@ -8,21 +8,27 @@
 //! each column contributes. When all normals are nearly parallel
 //! (a corridor) the shift along the walls is unobservable: the fit keeps only
 //! the observable component and reports the unobservable direction.
+//!
+//! All in integers (no floating point, so no software float on FPU-less
+//! cores): shifts and translations in Q16 pixels, normals in Q15, weights
+//! scaled by a power of two so the largest is in `[½, 1]` (the solution does
+//! not depend on a common factor of the weights), the normal matrix in Q24.
+//! Against an `f64` least squares on the same shifts the translation is
+//! within `2⁻¹²` px plus `2⁻¹⁶` of its size (`host-tests/tests/translation_fit.rs`).
 
 use fixed::types::I16F16;
-use micromath::F32Ext;
-
-use crate::math::sqrt_f32 as sqrt;
 
 use crate::profile::{Shift, RUNNERS_UP};
 
 /// The shift of one column, as measured by the profile match.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ColumnShift {
-    /// Unit normal `(cos ψ, sin ψ)` of the column in image 2, Q15.
+    /// Unit normal `(cos ψ, sin ψ)` of the column in image 2, Q15 (each
+    /// component is clamped to `[−1, 1]`).
     pub normal_q15: (i32, i32),
     /// The best shift `s` (pixels, Q16) and its weight (`score_q16`: match
-    /// score times relative strength, Q16 in [0, 1]).
+    /// score times relative strength, Q16 in [0, 1]; only the ratios of the
+    /// weights matter, and a weight of 0 removes the shift).
     pub best: Shift,
     /// The match's runner-up shifts, weighted like `best` (score 0: none):
     /// the fit may pick one where the best shifts disagree.
@@ -43,9 +49,9 @@ pub struct Pose {
     /// [`ScaleRange`](crate::ScaleRange).
     pub scale: I16F16,
     /// Weighted RMS of `n_j · t − s_j` over the columns kept, pixels of
-    /// image 2: how well the columns agree. With two columns `t` is exactly
-    /// determined and the residual is 0 whatever the shifts: see
-    /// [`columns`](Self::columns).
+    /// image 2 (each term saturates at 64 px): how well the columns agree.
+    /// With two columns `t` is exactly determined and the residual is 0
+    /// whatever the shifts: see [`columns`](Self::columns).
     pub residual: I16F16,
     /// Columns kept in the fit (1 to [`PROFILE_COLUMNS`](crate::stages::PROFILE_COLUMNS)
     /// from the estimator; a column none of whose shifts lies within 2 px of
@@ -56,16 +62,20 @@ pub struct Pose {
     /// off with two columns, 3.2 % with three or more; README).
     pub columns: u8,
     /// Unit vector along which `t` is not observable (all column normals are
-    /// nearly perpendicular to it); `t` has no component along it.
+    /// nearly perpendicular to it); `t` has no component along it. Of the
+    /// two opposite vectors, the one with `y > 0`, or `x < 0` when `y = 0`.
     pub unobservable: Option<(I16F16, I16F16)>,
 }
 
-/// Ratio of the small to the large eigenvalue of `Σ w n nᵀ` below which one
-/// direction counts as unobservable (normals within ~13° of each other).
-const OBSERVABILITY: f32 = 0.05;
-/// A shift farther than this from a translation's prediction (pixels) does
-/// not support it.
-const OUTLIER_PX: f32 = 2.0;
+/// A direction is unobservable when the small eigenvalue of `Σ w n nᵀ` is
+/// below 0.05 times the large one (normals within ~13° of each other):
+/// `λ₂ < 0.05·λ₁` ⇔ `det / trace² < 0.05 / 1.05² = 20 / 441`.
+const UNOBSERVABLE_DET: i64 = 441;
+/// See [`UNOBSERVABLE_DET`].
+const UNOBSERVABLE_TRACE2: i64 = 20;
+/// A shift farther than this from a translation's prediction (2 px, Q16)
+/// does not support it.
+const OUTLIER_Q16: i64 = 2 << 16;
 /// At most this many columns take part in the fit (the estimator gives
 /// [`PROFILE_COLUMNS`](crate::stages::PROFILE_COLUMNS)); later ones are ignored.
 pub const MAX_FIT_COLUMNS: usize = 8;
@@ -77,8 +87,18 @@ type Choice = u8;
 /// The column takes no part in the fit.
 const DROPPED: Choice = u8::MAX;
 
-/// Fits `t` to the column shifts; `None` without a usable column. Only the
-/// first [`MAX_FIT_COLUMNS`] shifts are used.
+/// A translation, Q16 pixels.
+type Xy = (i32, i32);
+
+/// `a·b` in 64 bits: one `smull` on the Cortex-M3/M4/M7 (the products of
+/// this module are formed from `i32`s for that reason).
+fn mul(a: i32, b: i32) -> i64 {
+    i64::from(a) * i64::from(b)
+}
+
+/// Fits `t` to the column shifts; `None` without a usable column (no
+/// positive weight, or normals of length ≈ 0). Only the first
+/// [`MAX_FIT_COLUMNS`] shifts are used.
 ///
 /// When the best shifts agree (each within 2 px of their least-squares fit)
 /// they are the answer. Otherwise a column may have locked onto the wrong
@@ -88,13 +108,16 @@ const DROPPED: Choice = u8::MAX;
 /// scored by the summed weight of the columns with a candidate within 2 px
 /// of its prediction, and the best-supported one picks each column's shift
 /// (or drops the column) for the final least-squares fit.
+///
+/// Integer arithmetic throughout; `t` saturates at the range of
+/// [`I16F16`] (±32 768 px).
 pub fn fit_translation(shifts: &[ColumnShift]) -> Option<Pose> {
     fit(shifts, CANDIDATES)
 }
 
 /// [`fit_translation`] on the best shifts alone (runners-up ignored): the
 /// scale search scores every scale with it, where weighing the runners-up
-/// would cost FPU-less targets dearly at scales whose columns disagree anyway.
+/// would cost dearly at scales whose columns disagree anyway.
 pub(crate) fn fit_best_shifts(shifts: &[ColumnShift]) -> Option<Pose> {
     fit(shifts, 1)
 }
@@ -108,39 +131,42 @@ fn fit(shifts: &[ColumnShift], candidates: Choice) -> Option<Pose> {
     let agree = shifts
         .iter()
         .zip(choices)
-        .all(|(c, k)| residual_of(c, k, fit.0, fit.1).is_none_or(|r| F32Ext::abs(r) <= OUTLIER_PX));
+        .all(|(c, k)| residual_of(c, k, fit.t).is_none_or(|r| r.abs() <= OUTLIER_Q16));
     if !agree {
-        if let Some((x, y)) = consensus(shifts, candidates) {
+        if let Some(t) = consensus(shifts, candidates) {
             for (choice, c) in choices.iter_mut().zip(shifts) {
-                *choice = supporting(c, x, y, candidates).map_or(DROPPED, |(k, _)| k);
+                *choice = supporting(c, t, candidates).map_or(DROPPED, |(k, _)| k);
             }
             fit = solve(shifts, &choices)?;
         }
     }
-    let (x, y, unobservable) = fit;
-    if !(x.is_finite() && y.is_finite()) {
-        return None;
-    }
-    let (mut sum_w, mut sum_r2, mut columns) = (0.0f32, 0.0f32, 0u8);
+    let scale = weight_scale(shifts, &choices)?;
+    let (mut sum_w, mut sum_wr2, mut columns) = (0u64, 0u64, 0u8);
     for (c, k) in shifts.iter().zip(choices) {
-        if let (Some((_, w)), Some(r)) = (candidate(c, k), residual_of(c, k, x, y)) {
+        if let (Some((_, w)), Some(r)) = (candidate(c, k), residual_of(c, k, fit.t)) {
+            let w = u64::from(scale.apply(w));
+            // |r| < 2²² (64 px): r² < 2⁴⁴ (Q32), w·r² < 2⁶⁰.
+            let r = r.unsigned_abs().min((1 << 22) - 1) as u32;
             sum_w += w;
-            sum_r2 += w * r * r;
+            sum_wr2 += (w * (u64::from(r) * u64::from(r))) >> 16;
             columns = columns.saturating_add(1);
         }
     }
-    let residual = if sum_w > 0.0 {
-        sqrt(sum_r2 / sum_w)
-    } else {
-        0.0
+    // Σ w·r² ≤ Σw · 2⁴⁴ and Σw ≤ 2¹⁹: shifted by 16 it stays below 2⁶³.
+    let residual = match sum_w {
+        0 => 0,
+        _ => ((sum_wr2 << 16) / sum_w).isqrt(),
     };
+    let (x, y) = fit.t;
     Some(Pose {
-        x: to_fixed(x),
-        y: to_fixed(y),
+        x: I16F16::from_bits(x),
+        y: I16F16::from_bits(y),
         scale: I16F16::ONE,
-        residual: to_fixed(residual),
+        residual: I16F16::from_bits(residual as i32),
         columns,
-        unobservable: unobservable.map(|(ux, uy)| (to_fixed(ux), to_fixed(uy))),
+        unobservable: fit
+            .unobservable
+            .map(|(ux, uy)| (I16F16::from_bits(ux), I16F16::from_bits(uy))),
     })
 }
 
@@ -168,75 +194,70 @@ impl Pose {
     }
 }
 
-/// Q16.16 from `f32`, saturating; NaN → 0 (never panics).
-fn to_fixed(v: f32) -> I16F16 {
-    // `as` saturates and maps NaN to 0.
-    I16F16::from_bits((v * 65536.0) as i32)
-}
-
 /// Candidates a column offers: its best shift, then its runners-up.
 const CANDIDATES: Choice = 1 + RUNNERS_UP as Choice;
 
-/// Shift (pixels) and weight of candidate `choice` of column `c`; `None`
-/// when dropped, absent or of zero weight.
-fn candidate(c: &ColumnShift, choice: Choice) -> Option<(f32, f32)> {
-    let (shift_q16, weight_q16) = match choice {
-        0 => (c.best.shift_q16, c.best.score_q16),
-        k => {
-            let r = c.runners_up.get(usize::from(k).checked_sub(1)?)?;
-            (r.shift_q16, r.score_q16)
-        }
+/// Shift (Q16 pixels) and weight (Q16) of candidate `choice` of column `c`;
+/// `None` when dropped, absent or of weight 0.
+fn candidate(c: &ColumnShift, choice: Choice) -> Option<(i32, u32)> {
+    let shift = match choice {
+        0 => c.best,
+        k => *c.runners_up.get(usize::from(k).checked_sub(1)?)?,
     };
-    (weight_q16 > 0).then(|| (shift_q16 as f32 / 65536.0, weight_q16 as f32 / 65536.0))
+    (shift.score_q16 > 0).then_some((shift.shift_q16, shift.score_q16))
 }
 
-fn normal(c: &ColumnShift) -> (f32, f32) {
-    (
-        c.normal_q15.0 as f32 / 32768.0,
-        c.normal_q15.1 as f32 / 32768.0,
-    )
+/// The column's normal, Q15, each component clamped to `[−1, 1]`.
+fn normal(c: &ColumnShift) -> (i32, i32) {
+    let clamp = |v: i32| v.clamp(-(1 << 15), 1 << 15);
+    (clamp(c.normal_q15.0), clamp(c.normal_q15.1))
 }
 
-/// `n · t − s` for the chosen candidate of `c`.
-fn residual_of(c: &ColumnShift, choice: Choice, x: f32, y: f32) -> Option<f32> {
+/// `n · t` (Q16 pixels, rounded) for a Q15 normal and a Q16 translation.
+fn along(n: (i32, i32), t: Xy) -> i64 {
+    (mul(n.0, t.0) + mul(n.1, t.1) + (1 << 14)) >> 15
+}
+
+/// `n · t − s` (Q16 pixels) for the chosen candidate of `c`.
+fn residual_of(c: &ColumnShift, choice: Choice, t: Xy) -> Option<i64> {
     let (shift, _) = candidate(c, choice)?;
-    let (nx, ny) = normal(c);
-    Some(nx * x + ny * y - shift)
+    Some(along(normal(c), t) - i64::from(shift))
 }
 
-/// Among the first `candidates` of `c`, the one within [`OUTLIER_PX`] of
-/// `t`'s prediction with the largest weight, and that weight.
-fn supporting(c: &ColumnShift, x: f32, y: f32, candidates: Choice) -> Option<(Choice, f32)> {
+/// Among the first `candidates` of `c`, the one within 2 px of `t`'s
+/// prediction with the largest weight (the first of equals), and that weight.
+fn supporting(c: &ColumnShift, t: Xy, candidates: Choice) -> Option<(Choice, u32)> {
     (0..candidates)
         .filter_map(|k| {
             let (_, w) = candidate(c, k)?;
-            let r = residual_of(c, k, x, y)?;
-            (F32Ext::abs(r) <= OUTLIER_PX).then_some((k, w))
+            let r = residual_of(c, k, t)?;
+            (r.abs() <= OUTLIER_Q16).then_some((k, w))
         })
-        .fold(None, |best: Option<(Choice, f32)>, (k, w)| match best {
+        .fold(None, |best: Option<(Choice, u32)>, (k, w)| match best {
             Some((_, bw)) if bw >= w => best,
             _ => Some((k, w)),
         })
 }
+
+/// Two columns determine a translation when their normals are at least
+/// ~20° apart: `|sin| ≥ 0.34`, Q30.
+const MIN_PAIR_SINE_Q30: i64 = (0.34 * (1u64 << 30) as f64) as i64;
 
 /// The best-supported translation among those two non-parallel columns'
 /// candidates determine (at least one of them a best shift), or, with no
 /// such pair, those one column's candidate determines (its shift along the
 /// normal). Not inlined: its frame is only on the stack while it runs.
 #[inline(never)]
-fn consensus(shifts: &[ColumnShift], candidates: Choice) -> Option<(f32, f32)> {
-    let mut best: Option<(f32, f32, f32)> = None;
-    let mut consider = |x: f32, y: f32| {
-        if !(x.is_finite() && y.is_finite()) {
-            return;
-        }
-        let support: f32 = shifts
+fn consensus(shifts: &[ColumnShift], candidates: Choice) -> Option<Xy> {
+    let mut best: Option<(u64, Xy)> = None;
+    let mut consider = |t: Xy| {
+        let support: u64 = shifts
             .iter()
-            .filter_map(|c| supporting(c, x, y, candidates))
-            .map(|(_, w)| w)
+            .filter_map(|c| supporting(c, t, candidates))
+            .map(|(_, w)| u64::from(w))
             .sum();
         if best.is_none_or(|b| support > b.0) {
-            best = Some((support, x, y));
+            best = Some((support, t));
         }
     };
     let mut pairs = false;
@@ -244,15 +265,30 @@ fn consensus(shifts: &[ColumnShift], candidates: Choice) -> Option<(f32, f32)> {
         let (ax, ay) = normal(a);
         for b in shifts.iter().skip(i + 1) {
             let (bx, by) = normal(b);
-            let det = ax * by - ay * bx;
-            if F32Ext::abs(det) < MIN_PAIR_SINE {
+            // Q30; |det| ≥ 0.34 so 1/det fits Q28 in 31 bits.
+            let det = mul(ax, by) - mul(ay, bx);
+            if det.abs() < MIN_PAIR_SINE_Q30 {
                 continue;
             }
             pairs = true;
+            // Never `None`: |det| ≥ 0.34 (the check keeps the division total).
+            let Some(inverse_q28) = (1i64 << 58).checked_div(det) else {
+                continue;
+            };
+            // Cramer's rule: t = (s_a·b_y − a_y·s_b, a_x·s_b − s_a·b_x) / det.
+            // The numerators are Q31 (< 2⁴⁷); taken to Q15 (< 2³²) they
+            // times 1/det (< 2³⁰) stay below 2⁶².
+            let solve = |sa: i32, sb: i32| -> Xy {
+                let component = |num_q31: i64| saturate(((num_q31 >> 16) * inverse_q28) >> 27);
+                (
+                    component(mul(sa, by) - mul(ay, sb)),
+                    component(mul(ax, sb) - mul(sa, bx)),
+                )
+            };
             for ka in 0..candidates {
                 for kb in (0..candidates).filter(|&kb| ka == 0 || kb == 0) {
                     if let (Some((sa, _)), Some((sb, _))) = (candidate(a, ka), candidate(b, kb)) {
-                        consider((sa * by - ay * sb) / det, (ax * sb - sa * bx) / det);
+                        consider(solve(sa, sb));
                     }
                 }
             }
@@ -263,66 +299,169 @@ fn consensus(shifts: &[ColumnShift], candidates: Choice) -> Option<(f32, f32)> {
             let (nx, ny) = normal(c);
             for k in 0..candidates {
                 if let Some((shift, _)) = candidate(c, k) {
-                    consider(shift * nx, shift * ny);
+                    consider((
+                        saturate(mul(shift, nx) >> 15),
+                        saturate(mul(shift, ny) >> 15),
+                    ));
                 }
             }
         }
     }
-    best.map(|(_, x, y)| (x, y))
+    best.map(|(_, t)| t)
 }
 
-/// Two columns determine a translation when their normals are at least
-/// ~20° apart (sine of the angle between them).
-const MIN_PAIR_SINE: f32 = 0.34;
+/// Clamps a Q16 value to the range of `i32` (and so of [`I16F16`]).
+fn saturate(v: i64) -> i32 {
+    v.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+}
 
-/// `t_x`, `t_y` (pixels) and the unobservable direction, if any.
-type Fit = (f32, f32, Option<(f32, f32)>);
+/// The weights of a fit's chosen candidates are multiplied by `2^shift`
+/// (or divided, for a negative shift) so that the largest is in
+/// `[2¹⁵, 2¹⁶)`: sums of up to [`MAX_FIT_COLUMNS`] terms then keep their
+/// precision and stay far from overflow, whatever the weights' scale.
+#[derive(Clone, Copy)]
+struct WeightScale {
+    shift: i32,
+}
 
-/// Weighted least squares over the chosen candidates; pseudo-inverse when
-/// one direction is unobservable.
+impl WeightScale {
+    /// `w` scaled, in `[0, 2¹⁶)` for any weight up to the largest.
+    fn apply(self, w: u32) -> u32 {
+        if self.shift >= 0 {
+            w << self.shift
+        } else {
+            w >> -self.shift
+        }
+    }
+}
+
+/// The [`WeightScale`] of the chosen candidates; `None` when none has a
+/// positive weight.
+fn weight_scale(
+    shifts: &[ColumnShift],
+    choices: &[Choice; MAX_FIT_COLUMNS],
+) -> Option<WeightScale> {
+    let largest = shifts
+        .iter()
+        .zip(choices)
+        .filter_map(|(c, &k)| candidate(c, k).map(|(_, w)| w))
+        .max()?;
+    // 0 < largest < 2³²: its top bit is at 0..=31; move it to bit 15.
+    let top = 31 - largest.leading_zeros() as i32;
+    Some(WeightScale { shift: 15 - top })
+}
+
+/// A solved fit: `t` (Q16 pixels) and the unobservable direction, if any
+/// (unit vector, Q16).
+struct Fit {
+    t: Xy,
+    unobservable: Option<(i32, i32)>,
+}
+
+/// Weighted least squares over the chosen candidates; the component along
+/// the well-observed direction only when the other is unobservable.
 fn solve(shifts: &[ColumnShift], choices: &[Choice; MAX_FIT_COLUMNS]) -> Option<Fit> {
-    let (mut a, mut b, mut c, mut u, mut v) = (0.0f32, 0.0f32, 0.0f32, 0.0f32, 0.0f32);
+    let scale = weight_scale(shifts, choices)?;
+    // Normal matrix [[a, b], [b, c]] = Σ w n nᵀ and right-hand side
+    // (u, v) = Σ w s n, all Q24 (rounded). With w ≤ 2¹⁶ (Q16), |n| ≤ 2¹⁵
+    // and |s| < 2³¹: w·n ≤ 2³¹ (Q31), w·n·n ≤ 2⁴⁶, w·n·s < 2⁶²; each sum of
+    // at most 8 terms: a, b, c ≤ 2²⁷ and u, v < 2⁴².
+    let (mut a, mut b, mut c, mut u, mut v) = (0i64, 0i64, 0i64, 0i64, 0i64);
     for (s, &k) in shifts.iter().zip(choices) {
         let Some((shift, w)) = candidate(s, k) else {
             continue;
         };
+        // < 2¹⁶, so w·n stays within i32.
+        let w = scale.apply(w) as i32;
         let (nx, ny) = normal(s);
-        a += w * nx * nx;
-        b += w * nx * ny;
-        c += w * ny * ny;
-        u += w * nx * shift;
-        v += w * ny * shift;
+        let (wx, wy) = (w * nx, w * ny);
+        a += (mul(wx, nx) + (1 << 21)) >> 22;
+        b += (mul(wx, ny) + (1 << 21)) >> 22;
+        c += (mul(wy, ny) + (1 << 21)) >> 22;
+        u += (mul(wx, shift) + (1 << 22)) >> 23;
+        v += (mul(wy, shift) + (1 << 22)) >> 23;
     }
-    // Eigen-decomposition of the symmetric [[a, b], [b, c]].
-    let mean = 0.5 * (a + c);
-    let spread = sqrt(0.25 * (a - c) * (a - c) + b * b);
-    let (large, small) = (mean + spread, mean - spread);
-    if large.is_nan() || large <= 1e-6 {
+    let trace = a + c;
+    // The largest weight (≥ ½) times its normal's length²: below 2⁻²⁰ the
+    // normals are degenerate (≈ 0).
+    if trace < 1 << 4 {
         return None;
     }
-    // Eigenvector of the large eigenvalue.
-    let (ex, ey) = if F32Ext::abs(b) > 1e-9 {
-        unit(large - c, b)
-    } else if a >= c {
-        (1.0, 0.0)
-    } else {
-        (0.0, 1.0)
-    };
-    if small < OBSERVABILITY * large {
-        // Only the component along (ex, ey) is observable.
-        let along = (ex * u + ey * v) / large;
-        return Some((along * ex, along * ey, Some((-ey, ex))));
-    }
+    // Q48; a·c < 2⁵⁶ and b² ≤ a·c (rounding aside).
     let det = a * c - b * b;
-    Some(((c * u - b * v) / det, (a * v - b * u) / det, None))
+    // trace ≤ 2²⁸ (|n|² ≤ 2 for a hand-built normal): 20·trace² < 2⁶¹ and
+    // 441·det ≤ 441·trace²/4 < 2⁶³.
+    if UNOBSERVABLE_DET * det < UNOBSERVABLE_TRACE2 * trace * trace {
+        // Only the component along the large eigenvalue's eigenvector e is
+        // observable: t = (e·(u, v) / λ₁) e.
+        let spread = (((a - c) * (a - c) + 4 * b * b) as u64).isqrt() as i64;
+        let large = (trace + spread) / 2;
+        // (λ₁ − c, b) and (b, λ₁ − a) are both eigenvectors; the one whose
+        // larger component is not a difference of nearly equal values.
+        let (ex, ey) = if a >= c {
+            unit(large - c, b)
+        } else {
+            unit(b, large - a)
+        };
+        // One sign for the reported direction (−e_y, e_x): e_x > 0, or
+        // e_x = 0 and e_y > 0.
+        let (ex, ey) = if ex < 0 || (ex == 0 && ey < 0) {
+            (-ex, -ey)
+        } else {
+            (ex, ey)
+        };
+        // e·(u, v) / λ₁: Q48 / Q24 → Q24 pixels.
+        let along = dot_over(ex, u, ey, v, large);
+        // Only normals far from unit length (hand-built) can make a
+        // product with e overflow: saturated.
+        let component = |e: i64| saturate(along.saturating_mul(e) >> 32);
+        let q16 = |e: i64| ((e + (1 << 7)) >> 8) as i32;
+        return Some(Fit {
+            t: (component(ex), component(ey)),
+            unobservable: Some((q16(-ey), q16(ex))),
+        });
+    }
+    // Cramer's rule: t = (c·u − b·v, a·v − b·u) / det; det (Q48) ≥
+    // 0.045·trace² ≥ 0.011 here, so in Q24 it keeps 17 bits or more.
+    let det_q24 = (det >> 24).max(1);
+    Some(Fit {
+        t: (
+            saturate(dot_over(c, u, -b, v, det_q24) >> 8),
+            saturate(dot_over(a, v, -b, u, det_q24) >> 8),
+        ),
+        unobservable: None,
+    })
 }
 
-fn unit(x: f32, y: f32) -> (f32, f32) {
-    let n = sqrt(x * x + y * y);
-    if n > 0.0 {
-        (x / n, y / n)
-    } else {
-        (1.0, 0.0)
+/// `(p·u + q·v) / d` for Q24 `p, q` (≤ 2²⁸), Q24 `u, v` (< 2⁴²) and a
+/// positive Q24 `d`: Q24. Exact products while they fit 64 bits (right-hand
+/// sides below ~2¹² px); beyond, `u, v` lose their last 8 bits first.
+fn dot_over(p: i64, u: i64, q: i64, v: i64, d: i64) -> i64 {
+    let exact = p
+        .checked_mul(u)
+        .zip(q.checked_mul(v))
+        .and_then(|(pu, qv)| pu.checked_add(qv));
+    // `checked_div` keeps it total (`d ≤ 0` gives 0).
+    let over = |n: i64| {
+        if d > 0 {
+            n.checked_div(d).unwrap_or(0)
+        } else {
+            0
+        }
+    };
+    match exact {
+        Some(n) => over(n),
+        // |p·(u/2⁸)| < 2⁶², and so is the sum.
+        None => over(p * (u >> 8) + q * (v >> 8)).saturating_mul(1 << 8),
+    }
+}
+
+/// `(x, y)` (Q24, |x|, |y| ≤ 2²⁸) as a unit vector, Q24; `(1, 0)` for 0.
+fn unit(x: i64, y: i64) -> (i64, i64) {
+    let length = ((x * x + y * y) as u64).isqrt() as i64;
+    match length {
+        0 => (1 << 24, 0),
+        _ => ((x << 24) / length, (y << 24) / length),
     }
 }
 
