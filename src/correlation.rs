@@ -137,10 +137,18 @@ impl Correlation {
     }
 }
 
-/// Circular distance between two shifts modulo `period`.
-pub(crate) fn circular_distance(a: usize, b: usize, period: usize) -> usize {
-    let d = a.abs_diff(b) % period.max(1);
-    d.min(period - d)
+/// Circular distance between two shifts modulo `period` (0 when `period`
+/// is 0). A `const fn`: `Reference::from_bytes` checks the stored profile
+/// columns' separation with it.
+pub(crate) const fn circular_distance(a: usize, b: usize, period: usize) -> usize {
+    let d = a.abs_diff(b) % if period == 0 { 1 } else { period };
+    // d < period, or d = period = 0.
+    let other = period - d;
+    if d < other {
+        d
+    } else {
+        other
+    }
 }
 
 /// `Σ a·b` in `u64`.

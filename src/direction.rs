@@ -80,27 +80,36 @@ pub struct HalfTurnTest {
 }
 
 impl HalfTurnTest {
-    /// `(winner − loser) / max(|winner|, |loser|)` in [0, 1] (improved mode),
-    /// or `|direct|` (paper mode, where `flipped = −direct`). Total on any
-    /// scores (the fields are public): negation, `abs`, difference and
-    /// quotient saturate, so the extremes of [`Score`] give a value in
-    /// [0, 2] instead of an overflow; the library's own scores lie in
-    /// [−1, 1] and give [0, 1].
+    /// How clearly the chosen member won, in [0, 1] (Q16.16; 0: a tie):
+    /// `(winner − loser) / max(|winner|, |loser|)` (improved mode, both
+    /// scores in [0, 1]), or `|direct|` when `flipped = −direct` (paper
+    /// mode), clamped to [0, 1].
+    ///
+    /// Total on any scores (the fields are public): negation, `abs`,
+    /// difference and quotient saturate, so no input overflows. The clamp
+    /// leaves every value the library's own scores give as it is (paper:
+    /// `flipped = −direct` in [−1, 1]; improved: both in [0, 1]); it binds
+    /// only on hand-built scores: beyond [−1, 1], or of opposite signs
+    /// without being each other's negation (0.9 against −0.5 would give
+    /// 1.4 / 0.9 ≈ 1.56), which read 1.
     pub fn margin(&self) -> Score {
         let (hi, lo) = if self.direct >= self.flipped {
             (self.direct, self.flipped)
         } else {
             (self.flipped, self.direct)
         };
-        if lo == hi.saturating_neg() {
-            return hi.saturating_abs();
-        }
-        let scale = hi.saturating_abs().max(lo.saturating_abs());
-        if scale == Score::ZERO {
-            Score::ZERO
+        let margin = if lo == hi.saturating_neg() {
+            hi.saturating_abs()
         } else {
-            hi.saturating_sub(lo).saturating_div(scale)
-        }
+            let scale = hi.saturating_abs().max(lo.saturating_abs());
+            if scale == Score::ZERO {
+                Score::ZERO
+            } else {
+                hi.saturating_sub(lo).saturating_div(scale)
+            }
+        };
+        // Already ≥ 0 (hi ≥ lo, and `abs` saturates to a non-negative value).
+        margin.clamp(Score::ZERO, Score::ONE)
     }
 }
 
@@ -249,22 +258,120 @@ mod tests {
     }
 
     /// Total on any scores (the fields are public): the extremes of
-    /// `Score` saturate instead of overflowing in `−hi` or `abs`.
+    /// `Score` saturate instead of overflowing in `−hi` or `abs`, and scores
+    /// outside [−1, 1] give a margin in [0, 1].
     #[test]
     fn margin_is_total() {
+        let s = |v: f64| Score::from_num(v);
+        let delta = Score::DELTA;
         for (direct, flipped, expected) in [
             (Score::MIN, Score::MIN, Score::ZERO),
             (Score::MIN, Score::MAX, Score::ONE),
             (Score::MAX, Score::MIN, Score::ONE),
             (Score::MAX, Score::MAX, Score::ZERO),
             (Score::ZERO, Score::ZERO, Score::ZERO),
+            // Negations beyond 1 (`|direct|`, was 3 and 32 768 − 2⁻¹⁶).
+            (s(3.0), s(-3.0), Score::ONE),
+            (Score::MAX, -Score::MAX, Score::ONE),
+            (Score::MIN + delta, Score::MAX, Score::ONE),
+            // Opposite signs beyond 1 (was 1.5 and 2).
+            (s(-2.0), s(1.0), Score::ONE),
+            (s(-4.0), s(4.0) + delta, Score::ONE),
+            (Score::MIN, Score::ZERO, Score::ONE),
+            // Same signs beyond 1: within [0, 1] already, as before.
+            (s(5.0), s(1.0), s(0.8)),
+            (s(-100.0), s(-300.0), s(2.0 / 3.0)),
+            (s(2.0), s(2.0), Score::ZERO),
+            (Score::MAX, Score::ONE, Score::ONE - Score::ONE / Score::MAX),
         ] {
             let t = HalfTurnTest {
                 chosen: HalfTurn::Direct,
                 direct,
                 flipped,
             };
-            assert_eq!(t.margin(), expected, "{direct} {flipped}");
+            let margin = t.margin();
+            assert!(
+                (Score::ZERO..=Score::ONE).contains(&margin),
+                "{direct} {flipped}: {margin}"
+            );
+            assert!(
+                (margin - expected).abs() <= 2 * delta,
+                "{direct} {flipped}: {margin}, expected {expected}"
+            );
         }
+    }
+
+    /// The margin before the clamp (the former body of `margin`).
+    fn unclamped(direct: Score, flipped: Score) -> Score {
+        let (hi, lo) = if direct >= flipped {
+            (direct, flipped)
+        } else {
+            (flipped, direct)
+        };
+        if lo == hi.saturating_neg() {
+            return hi.saturating_abs();
+        }
+        let scale = hi.saturating_abs().max(lo.saturating_abs());
+        if scale == Score::ZERO {
+            Score::ZERO
+        } else {
+            hi.saturating_sub(lo).saturating_div(scale)
+        }
+    }
+
+    /// Over a grid of scores in [−1, 1] (every 1 237th Q16 value and the
+    /// ends): the margin is the documented formula, computed in `f64`,
+    /// within 2⁻¹⁵; it equals the former value wherever that was at most 1,
+    /// which covers every pair the library builds (`flipped = −direct`;
+    /// both in [0, 1]). The former value exceeded 1 only for opposite signs
+    /// that are not each other's negation, and these now read exactly 1.
+    #[test]
+    fn margin_in_range_matches_the_formula() {
+        let mut grid: Vec<Score, 128> = (-(1 << 16)..=1 << 16)
+            .step_by(1237)
+            .map(Score::from_bits)
+            .collect();
+        for end in [Score::ONE, -Score::ONE, Score::DELTA, -Score::DELTA] {
+            grid.push(end).unwrap();
+        }
+        let (mut same, mut clamped) = (0, 0);
+        for &direct in &grid {
+            for &flipped in &grid {
+                let t = HalfTurnTest {
+                    chosen: HalfTurn::Direct,
+                    direct,
+                    flipped,
+                };
+                let margin = t.margin();
+                let (d, f) = (direct.to_num::<f64>(), flipped.to_num::<f64>());
+                let (hi, lo) = (d.max(f), d.min(f));
+                let raw = if lo == -hi {
+                    hi.abs()
+                } else if hi == 0.0 && lo == 0.0 {
+                    0.0
+                } else {
+                    (hi - lo) / hi.abs().max(lo.abs())
+                };
+                let expected = raw.min(1.0);
+                assert!(
+                    (margin.to_num::<f64>() - expected).abs() <= 1.0 / 32768.0,
+                    "{direct} {flipped}: {margin}, expected {expected}"
+                );
+                let before = unclamped(direct, flipped);
+                if before <= Score::ONE {
+                    assert_eq!(margin, before, "{direct} {flipped}");
+                    same += 1;
+                } else {
+                    assert!(hi > 0.0 && lo < 0.0 && lo != -hi, "{direct} {flipped}");
+                    assert_eq!(margin, Score::ONE, "{direct} {flipped}");
+                    clamped += 1;
+                }
+                // The pairs the library builds are never clamped.
+                if lo == -hi || lo >= 0.0 {
+                    assert!(before <= Score::ONE, "{direct} {flipped}: {before}");
+                }
+            }
+        }
+        assert!(same > 0 && clamped > 0, "{same} {clamped}");
     }
 }

@@ -71,6 +71,12 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
     /// Prepares `grid` as a reference: streams its signature, then re-votes the
     /// [`PROFILE_COLUMNS`] strongest, well-separated columns to keep their
     /// profiles. `columns` is scratch. `N = 2·HALF`.
+    ///
+    /// The columns are the strongest local maxima of `D(θ)` (`D > 0`, not
+    /// below either neighbour, circularly modulo π), chosen greedily,
+    /// strongest first (the lowest θ among equals), each at least
+    /// `max(HALF/18, 2)` steps (10°) modulo π from those already chosen; as
+    /// many as there are, up to [`PROFILE_COLUMNS`].
     pub fn prepare<const N: usize>(
         grid: &Grid<W, H, RW>,
         kind: PeakKind,
@@ -79,8 +85,8 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
         let signature = Signature::<HALF>::stream::<W, H, RW, N, RHO>(grid, kind, columns);
         let [column, _] = columns;
         let mut profiles = [const { Profile::EMPTY }; PROFILE_COLUMNS];
-        let chosen = strongest_columns(&signature);
-        for (slot, &theta) in profiles.iter_mut().zip(&chosen) {
+        let (chosen, count) = strongest_columns(&signature.peak);
+        for (slot, &theta) in profiles.iter_mut().zip(chosen.iter().take(count)) {
             column.fill(0);
             vote_column_split::<W, H, RW, N, RHO>(grid, theta, UNIT_SCALE_Q16, column);
             let max = column.iter().copied().max().unwrap_or(0);
@@ -95,7 +101,7 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
             signature,
             profiles,
             // At most PROFILE_COLUMNS columns are chosen.
-            count: chosen.len() as u8,
+            count: count as u8,
             occupied: grid.occupied(),
             grid: grid.clone(),
         }
@@ -174,8 +180,21 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
     /// bytes hold a value [`Self::to_bytes`] never writes: `S(θ) = i16::MIN`,
     /// `S(θ) ≠ 0` in a two-bin reference, `D(θ)` above the cell count or
     /// above [`max_votes_per_bin`](crate::config::max_votes_per_bin) (twice
-    /// it for two-bin peaks), a profile column θ ≥ `HALF` or with
-    /// `D(θ) = 0`, or an unused profile slot that is not zero.
+    /// it for two-bin peaks), profile columns other than those
+    /// [`Self::prepare`] chooses from the stored `D(θ)` (another count, order
+    /// or column: a column that is not a local maximum of `D`, one too close
+    /// to a stronger one, a duplicate, a weaker column ahead of a stronger
+    /// one, a strong column left out), a used profile whose counts are all
+    /// zero (its column holds every cell's vote), or an unused profile slot
+    /// that is not zero.
+    ///
+    /// Not checked: the values of `D(θ)`, `S(θ)` and the profile counts
+    /// (beyond the bounds above), and whether they belong to the stored
+    /// grid. They are functions of the grid, but checking them means voting
+    /// it again (what [`Self::prepare`] costs, which a stored reference
+    /// exists to avoid; the vote loops are not `const fn`), so a grid
+    /// replaced together with its cell count is read with the old
+    /// signature and profiles; the checksum catches accidental corruption.
     ///
     /// A `const fn`: a reference stored with the firmware can be parsed at
     /// compile time into a `static`, which then lives in flash and costs no
@@ -236,6 +255,10 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
             k += 1;
         }
         at += 4 * HALF;
+        let (chosen, chosen_count) = strongest_columns(&signature.peak);
+        if count != chosen_count {
+            return Err(Error::InvalidReference);
+        }
         let mut profiles = [const { Profile::EMPTY }; PROFILE_COLUMNS];
         let mut i = 0;
         while i < PROFILE_COLUMNS {
@@ -247,8 +270,8 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
                 b += 1;
             }
             if i < count {
-                // A stored column is a local maximum of D with D > 0.
-                if theta >= HALF || signature.peak[theta] == 0 {
+                // The columns `prepare` chooses from this D, in its order.
+                if theta != chosen[i] || all_zero(&counts) {
                     return Err(Error::InvalidReference);
                 }
                 profiles[i] = Profile { theta, counts };
@@ -325,40 +348,69 @@ const fn signature_is_possible<const HALF: usize>(
     true
 }
 
-/// The [`PROFILE_COLUMNS`] strongest local maxima of `D`, at least 10° apart
-/// (modulo π), strongest first.
-fn strongest_columns<const HALF: usize>(
-    signature: &Signature<HALF>,
-) -> heapless::Vec<usize, PROFILE_COLUMNS> {
-    let separation = (HALF / 18).max(2);
-    let mut chosen: heapless::Vec<usize, PROFILE_COLUMNS> = heapless::Vec::new();
-    while !chosen.is_full() {
-        let next = (0..HALF)
-            .map(|k| {
-                (
-                    k,
-                    signature.peak(k),
-                    signature.peak(k + HALF - 1),
-                    signature.peak(k + 1),
-                )
-            })
-            .filter(|&(_, value, before, after)| value > 0 && value >= before && value >= after)
-            .filter(|&(k, ..)| {
-                chosen
-                    .iter()
-                    .all(|&c| circular_distance(c, k, HALF) >= separation)
-            })
-            .map(|(k, value, ..)| (value, core::cmp::Reverse(k)))
-            .max()
-            .map(|(_, core::cmp::Reverse(k))| k);
-        match next {
-            Some(k) => {
-                let _ = chosen.push(k);
+/// The columns [`Reference::prepare`] keeps for the signature `D` = `peak`:
+/// the [`PROFILE_COLUMNS`] strongest local maxima of `D` (`D(k) > 0` and
+/// `D(k) ≥ D(k ± 1)`, circularly modulo π), at least `max(HALF/18, 2)`
+/// steps (10°) apart modulo π, chosen greedily: strongest first, the lowest
+/// `k` among equals. Returns the columns (the first `count` are used) and
+/// `count`. A `const fn`, so that [`Reference::from_bytes`] checks the
+/// stored columns by the very rule that chose them.
+const fn strongest_columns<const HALF: usize>(
+    peak: &[u16; HALF],
+) -> ([usize; PROFILE_COLUMNS], usize) {
+    let separation = if HALF / 18 > 2 { HALF / 18 } else { 2 };
+    let mut chosen = [0usize; PROFILE_COLUMNS];
+    let mut count = 0;
+    while count < PROFILE_COLUMNS {
+        // The strongest admissible column, the lowest k among equals.
+        let mut best: Option<(u16, usize)> = None;
+        let mut k = 0;
+        while k < HALF {
+            let value = peak[k];
+            let before = peak[if k == 0 { HALF - 1 } else { k - 1 }];
+            let after = peak[if k + 1 == HALF { 0 } else { k + 1 }];
+            let stronger = match best {
+                Some((b, _)) => value > b,
+                None => true,
+            };
+            if value > 0
+                && value >= before
+                && value >= after
+                && stronger
+                && far_from(&chosen, count, k, separation, HALF)
+            {
+                best = Some((value, k));
+            }
+            k += 1;
+        }
+        match best {
+            Some((_, k)) => {
+                chosen[count] = k;
+                count += 1;
             }
             None => break,
         }
     }
-    chosen
+    (chosen, count)
+}
+
+/// Whether `k` is at least `separation` steps (modulo `half`) from each of
+/// the first `count` columns of `chosen`.
+const fn far_from(
+    chosen: &[usize; PROFILE_COLUMNS],
+    count: usize,
+    k: usize,
+    separation: usize,
+    half: usize,
+) -> bool {
+    let mut i = 0;
+    while i < count && i < PROFILE_COLUMNS {
+        if circular_distance(chosen[i], k, half) < separation {
+            return false;
+        }
+        i += 1;
+    }
+    true
 }
 
 fn kind_byte(kind: PeakKind) -> u8 {
@@ -535,7 +587,7 @@ mod tests {
         let occupied = r.occupied() as u16;
         let bound = max_votes_per_bin(32, 32) as u16;
         type Edit = fn(&mut [u8], u16, u16);
-        let edits: [(&str, bool, Edit); 17] = [
+        let edits: [(&str, bool, Edit); 23] = [
             ("magic", false, |b, _, _| b[0] = b'X'),
             ("width", false, |b, _, _| b[4] = 33),
             ("height", false, |b, _, _| b[6] = 31),
@@ -568,6 +620,45 @@ mod tests {
                 let theta = usize::from(u16::from_le_bytes([b[PROFILE], b[PROFILE + 1]]));
                 b[PEAKS + 2 * theta..PEAKS + 2 * theta + 2].fill(0);
             }),
+            // The profile columns must be those `prepare` chooses from D.
+            ("count one less, last slot zeroed", false, |b, _, _| {
+                b[13] -= 1;
+                let last = PROFILE + usize::from(b[13]) * (2 + RHO);
+                b[last..last + 2 + RHO].fill(0);
+            }),
+            ("first two profiles swapped", false, |b, _, _| {
+                let (first, second) = b[PROFILE..GRID].split_at_mut(2 + RHO);
+                first.swap_with_slice(&mut second[..2 + RHO]);
+            }),
+            ("first profile duplicated", false, |b, _, _| {
+                b.copy_within(PROFILE..PROFILE + 2 + RHO, PROFILE + 2 + RHO);
+            }),
+            (
+                "first column no longer a local maximum",
+                false,
+                |b, _, _| {
+                    let theta = usize::from(u16::from_le_bytes([b[PROFILE], b[PROFILE + 1]]));
+                    let d = u16::from_le_bytes([b[PEAKS + 2 * theta], b[PEAKS + 2 * theta + 1]]);
+                    let next = PEAKS + 2 * ((theta + 1) % 32);
+                    b[next..next + 2].copy_from_slice(&(d + 1).to_le_bytes());
+                },
+            ),
+            (
+                "second column within the separation of the first",
+                false,
+                |b, _, _| {
+                    // θ₀ + 1 made a local maximum as strong as θ₀: `prepare`
+                    // skips it (closer than max(HALF/18, 2) = 2 steps).
+                    let theta = usize::from(u16::from_le_bytes([b[PROFILE], b[PROFILE + 1]]));
+                    let close = (theta + 1) % 32;
+                    b.copy_within(PEAKS + 2 * theta..PEAKS + 2 * theta + 2, PEAKS + 2 * close);
+                    let second = PROFILE + 2 + RHO;
+                    b[second..second + 2].copy_from_slice(&(close as u16).to_le_bytes());
+                },
+            ),
+            ("profile counts all zero", false, |b, _, _| {
+                b[PROFILE + 2..PROFILE + 2 + RHO].fill(0);
+            }),
             ("checksum", false, |b, _, _| b[R::BYTES - 1] ^= 1),
         ];
         for (name, two_bin, edit) in edits {
@@ -585,17 +676,104 @@ mod tests {
     }
 
     /// Bounds `from_bytes` accepts: `|S| = i16::MAX` (what the saturation
-    /// writes) and `D` at the cell count.
+    /// writes) and `D` at the cell count (at the strongest profile column,
+    /// where it leaves the choice of columns as it is).
     #[test]
     fn extreme_values_the_library_writes_are_accepted() {
         let r = prepared(PeakKind::SingleBin);
         let mut bytes = bytes_of(&r);
         bytes[ASYMMETRY..ASYMMETRY + 2].copy_from_slice(&i16::MAX.to_le_bytes());
         bytes[ASYMMETRY + 2..ASYMMETRY + 4].copy_from_slice(&(-i16::MAX).to_le_bytes());
-        bytes[PEAKS + 2..PEAKS + 4].copy_from_slice(&(r.occupied() as u16).to_le_bytes());
+        let strongest = PEAKS + 2 * r.profiles()[0].theta;
+        bytes[strongest..strongest + 2].copy_from_slice(&(r.occupied() as u16).to_le_bytes());
         resum(&mut bytes);
         let read = R::from_bytes(&bytes).unwrap();
         assert_eq!(read.signature().asymmetry(32), -i16::MAX);
         assert_eq!(read.signature().asymmetry(33), i16::MAX);
+        assert_eq!(
+            read.signature().peak(r.profiles()[0].theta),
+            r.occupied() as u16
+        );
+        assert_eq!(read.profiles(), r.profiles());
+    }
+
+    /// What `from_bytes` cannot check (documented): the profile counts
+    /// beyond "not all zero". Halved, they are accepted.
+    #[test]
+    fn profile_counts_are_not_checked_against_the_grid() {
+        let r = prepared(PeakKind::SingleBin);
+        let mut bytes = bytes_of(&r);
+        bytes[PROFILE + 2..PROFILE + 2 + RHO]
+            .iter_mut()
+            .for_each(|c| *c >>= 1);
+        resum(&mut bytes);
+        let read = R::from_bytes(&bytes).unwrap();
+        assert_ne!(read.profiles()[0].counts, r.profiles()[0].counts);
+    }
+
+    /// The former iterator form of the column choice (before it became a
+    /// `const fn` for `from_bytes`), kept as the oracle of the rule.
+    fn strongest_columns_oracle<const HALF: usize>(
+        signature: &Signature<HALF>,
+    ) -> heapless::Vec<usize, PROFILE_COLUMNS> {
+        let separation = (HALF / 18).max(2);
+        let mut chosen: heapless::Vec<usize, PROFILE_COLUMNS> = heapless::Vec::new();
+        while !chosen.is_full() {
+            let next = (0..HALF)
+                .map(|k| {
+                    (
+                        k,
+                        signature.peak(k),
+                        signature.peak(k + HALF - 1),
+                        signature.peak(k + 1),
+                    )
+                })
+                .filter(|&(_, value, before, after)| value > 0 && value >= before && value >= after)
+                .filter(|&(k, ..)| {
+                    chosen
+                        .iter()
+                        .all(|&c| circular_distance(c, k, HALF) >= separation)
+                })
+                .map(|(k, value, ..)| (value, core::cmp::Reverse(k)))
+                .max()
+                .map(|(_, core::cmp::Reverse(k))| k);
+            match next {
+                Some(k) => {
+                    let _ = chosen.push(k);
+                }
+                None => break,
+            }
+        }
+        chosen
+    }
+
+    /// The `const fn` choice equals the oracle on random `D` with few
+    /// distinct values (plateaus, ties, zeros, wrap-around maxima).
+    fn choice_matches_oracle<const HALF: usize>(seed: u64) {
+        let mut state = seed;
+        for levels in [2u64, 3, 5, 40] {
+            for _ in 0..300 {
+                let mut signature = Signature::<HALF>::empty(PeakKind::SingleBin);
+                for d in signature.peak.iter_mut() {
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    *d = ((state >> 33) % levels) as u16;
+                }
+                let (chosen, count) = strongest_columns(&signature.peak);
+                let oracle = strongest_columns_oracle(&signature);
+                assert_eq!(&chosen[..count], &oracle[..], "{:?}", signature.peak);
+            }
+        }
+    }
+
+    #[test]
+    fn column_choice_matches_the_iterator_form() {
+        choice_matches_oracle::<1>(1);
+        choice_matches_oracle::<2>(2);
+        choice_matches_oracle::<3>(3);
+        choice_matches_oracle::<32>(4);
+        choice_matches_oracle::<64>(5);
+        choice_matches_oracle::<180>(6);
     }
 }
