@@ -21,7 +21,10 @@
 //! writes nothing in `budgets/` (the measurement goes to
 //! `target/budgets/measured.json`) and fails when a value grew by more than
 //! 10 % over `budgets/budgets.json` or a metric of `budgets/budgets.json` is
-//! missing from the measurement. Both fail on a wrong estimate.
+//! missing from the measurement. Both fail on a wrong estimate, and when a
+//! bench ELF (the estimator without the rasterizer) links a software
+//! floating-point routine (`elf::is_float_routine`): the estimate is
+//! integer-only on every core.
 //! `bash tools/budgets.sh` builds the tools and runs `report`.
 //!
 //! `profile` runs a bench ELF (as `report` leaves them in

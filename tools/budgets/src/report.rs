@@ -426,6 +426,16 @@ pub fn measure(paths: &Paths, only: Option<&str>) -> Result<Measured, Error> {
         for config in &configs {
             let path = build(paths, target, Some(config))?;
             let image = elf::read(&path)?;
+            // The estimate is integer arithmetic only: no core may need the
+            // runtime's floating-point routines for it.
+            if !image.float_routines.is_empty() {
+                failures.push(format!(
+                    "{} {}: the bench links floating-point routines ({}); the estimate must stay integer-only",
+                    target.triple,
+                    config.key(),
+                    image.float_routines.join(", ")
+                ));
+            }
             let mut values = Map::new();
             let flash_library = image.flash.saturating_sub(baseline.flash + image.grids);
             values.insert("flash_total".into(), json!(image.flash));
