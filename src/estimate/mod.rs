@@ -11,7 +11,6 @@ mod verify;
 
 pub use answer::{Candidate, Estimate, Prior, Status, Thresholds, MAX_CANDIDATES};
 
-use crate::accumulator::Column;
 use crate::angle::Angle;
 use crate::correlation::{Correlation, Peak};
 use crate::direction::{self, HalfTurn, HalfTurnTest};
@@ -50,8 +49,10 @@ impl Mode {
 /// `RW`, `HALF` and `RHO` are derived sizes: use the
 /// [`estimator!`](crate::estimator) macro.
 ///
-/// State: two ρ columns (`4·RHO` bytes) and the signature of the current
-/// image (`4·HALF + 2` bytes): 1.8 KiB at 128², `N` = 360. Work per estimate: the
+/// State: the signature of the current image (`4·HALF + 2` bytes) and the
+/// settings: 760 B at 128², `N` = 360. Scratch on the stack, only while it
+/// is used: two ρ columns (`4·RHO` bytes) while a signature is voted, one
+/// (`2·RHO`) during each direction test. Work per estimate: the
 /// votes of `HALF` columns (occupied cells × `HALF`), `HALF²` multiply-adds of
 /// the correlation, and per direction test (improved mode) `PROFILE_COLUMNS`
 /// split-vote columns and twice as many profile matches, which also give the
@@ -71,7 +72,6 @@ pub struct Estimator<
     thresholds: Thresholds,
     scale: Option<ScaleRange>,
     verify: bool,
-    columns: [Column<RHO>; 2],
     current: Signature<HALF>,
 }
 
@@ -94,7 +94,6 @@ impl<
             thresholds: Thresholds::DEFAULT,
             scale: None,
             verify: true,
-            columns: [[0; RHO]; 2],
             current: Signature::empty(mode.peak_kind()),
         }
     }
@@ -155,7 +154,7 @@ impl<
 
     /// Prepares `grid` as a reference for this estimator's mode.
     pub fn reference(&mut self, grid: &Grid<W, H, RW>) -> Reference<W, H, RW, HALF, RHO> {
-        Reference::prepare::<N>(grid, self.mode.peak_kind(), &mut self.columns)
+        Reference::prepare::<N>(grid, self.mode.peak_kind(), &mut [[0; RHO]; 2])
     }
 
     /// Rotation of `grid` relative to two grids: prepares `first` as the
@@ -190,9 +189,7 @@ impl<
         {
             return Estimate::no_structure();
         }
-        let kind = reference.signature().kind();
-        self.current
-            .restream::<W, H, RW, N, RHO>(grid, kind, &mut self.columns);
+        self.stream_current(grid, reference.signature().kind());
         let correlation = Correlation::of(reference.signature().peaks(), self.current.peaks());
         let Some(best) = correlation.best().copied() else {
             return Estimate::no_structure();
@@ -266,6 +263,15 @@ impl<
         }
     }
 
+    /// Votes `grid`'s signature into `current`. Not inlined: its two columns
+    /// (`4·RHO` bytes) are on the stack only while it runs, not during the
+    /// direction tests and the verification that follow.
+    #[inline(never)]
+    fn stream_current(&mut self, grid: &Grid<W, H, RW>, kind: PeakKind) {
+        self.current
+            .restream::<W, H, RW, N, RHO>(grid, kind, &mut [[0; RHO]; 2]);
+    }
+
     /// α of a correlation peak, its direction test and (improved mode) the
     /// translation implied by the profile shifts.
     fn resolve(
@@ -294,7 +300,9 @@ impl<
     }
 
     /// The improved direction test and the pose (translation, and scale when
-    /// a [`ScaleRange`] is set): [`direction::improved`].
+    /// a [`ScaleRange`] is set): [`direction::improved`]. Not inlined: its
+    /// column (`2·RHO` bytes) is on the stack only while it runs.
+    #[inline(never)]
     fn profile_test(
         &mut self,
         reference: &Reference<W, H, RW, HALF, RHO>,
@@ -302,9 +310,13 @@ impl<
         alpha: Angle,
     ) -> (Angle, HalfTurnTest, Option<Pose>) {
         let max_shift = self.max_shift();
-        let [column, _] = &mut self.columns;
         direction::improved::<W, H, RW, N, HALF, RHO>(
-            reference, grid, alpha, self.scale, max_shift, column,
+            reference,
+            grid,
+            alpha,
+            self.scale,
+            max_shift,
+            &mut [0; RHO],
         )
     }
 }
