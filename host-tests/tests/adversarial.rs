@@ -23,6 +23,8 @@
 //! the end began as findings (panics, overflows, symmetric scenes reported
 //! `Confident`) and now hold; the README's "Guarantees" section sums them up.
 
+mod common;
+
 use hough_heading::{
     config::half_turn_steps, config::max_votes_per_bin, config::pyramid_words, config::rho_bins,
     config::row_words, stages::vote_column, stages::Accumulator, stages::PeakKind,
@@ -828,16 +830,12 @@ fn report(size: &str, results: &[Run]) {
         *by_status.entry(status).or_default() += n;
     }
     println!("{size}: {cases} cases, {} violations", violations.len());
-    eprintln!(
-        "{size}: asymmetric scenes: {checked} answers checked (Confident), {skipped} skipped {by_status:?}"
-    );
-    let share = skipped as f64 / (checked + skipped).max(1) as f64;
-    assert!(
-        checked > 0 && share <= MAX_ASYMMETRIC_SKIPPED,
-        "{size}: {skipped} of {} asymmetric answers skipped ({:.1} %, at most {:.0} % allowed): {by_status:?}",
-        checked + skipped,
-        100.0 * share,
-        100.0 * MAX_ASYMMETRIC_SKIPPED
+    common::assert_skipped_share(
+        &format!("{size}: asymmetric scenes, answers (checked: Confident)"),
+        checked,
+        skipped,
+        MAX_ASYMMETRIC_SKIPPED,
+        &format!("{by_status:?}"),
     );
     assert!(
         violations.is_empty(),

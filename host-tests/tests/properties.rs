@@ -77,16 +77,7 @@ fn run_counted<S: Strategy>(
     if let Err(e) = result {
         panic!("{name}: {e}");
     }
-    let (checked, skipped) = (checked.get(), skipped.get());
-    let share = skipped as f64 / (checked + skipped).max(1) as f64;
-    eprintln!("{name}: {checked} cases checked, {skipped} skipped");
-    assert!(
-        checked > 0 && share <= max_skipped,
-        "{name}: {skipped} of {} cases skipped ({:.1} %, at most {:.0} % allowed)",
-        checked + skipped,
-        100.0 * share,
-        100.0 * max_skipped
-    );
+    common::assert_skipped_share(name, checked.get(), skipped.get(), max_skipped, "");
 }
 
 fn damage() -> impl Strategy<Value = Damage> {

@@ -132,3 +132,25 @@ impl<const W: usize, const H: usize, const RW: usize> Occupied for Grid<W, H, RW
             .min(hough_heading::config::align_points(W, H) as u32)
     }
 }
+
+/// Fails unless at least one case was checked and the skipped share is at
+/// most `max_share`; prints the counts either way. `detail` (e.g. the
+/// skipped cases by status) goes into the message.
+#[allow(dead_code)] // not every test file uses it
+pub fn assert_skipped_share(
+    what: &str,
+    checked: usize,
+    skipped: usize,
+    max_share: f64,
+    detail: &str,
+) {
+    let share = skipped as f64 / (checked + skipped).max(1) as f64;
+    eprintln!("{what}: {checked} checked, {skipped} skipped {detail}");
+    assert!(
+        checked > 0 && share <= max_share,
+        "{what}: {skipped} of {} skipped ({:.1} %, at most {:.0} % allowed) {detail}",
+        checked + skipped,
+        100.0 * share,
+        100.0 * max_share
+    );
+}
