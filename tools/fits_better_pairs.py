@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
-"""List the wrong unflagged pairs that the estimate aligns better than the truth.
+"""Re-check, in numpy, the wrong unflagged pairs that the estimate aligns better than the truth.
 
-Reproduces the summary's "of which fit better" column (cli/src/summary.rs)
-pair by pair: among the pairs whose status is not flagged and whose rotation
+`hough-heading scans FILE --summary` lists them by line index after each
+file's table (cli/src/summary.rs). This script redoes the same test
+independently and prints each pair's point shares under the estimate and
+under the truth: among the pairs whose status is not flagged and whose rotation
 error exceeds 5 degrees, those where the share of scan-2 points within 0.1 m
 of a scan-1 point is higher under the estimated pose than under the ground
 truth (brute force on the raw points, ranges rounded to f32 as the CLI reads

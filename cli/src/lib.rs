@@ -732,10 +732,11 @@ fn scans_command(args: &ScansArgs) -> Result<usize, Fatal> {
         failed += file_failed;
         if args.summary {
             eprintln!(
-                "\n{}: {}\n\n{}",
+                "\n{}: {}\n\n{}\n{}",
                 path.display(),
                 setup_line(args),
-                summary.table()
+                summary.table(),
+                summary.fits_better_pairs()
             );
             pooled.extend(summary);
         }
@@ -841,7 +842,7 @@ fn scans_file(
                             (method, e)
                         })
                         .collect();
-                    summary.add(&truth, pair, &with_methods);
+                    summary.add(index, &truth, pair, &with_methods);
                 }
                 (Ok(_), _, Err(e)) => {
                     bar.suspend(|| {

@@ -16,7 +16,9 @@
 //!   many the estimate aligns better than the ground truth does: the share
 //!   of scan-2 points within 0.1 m of a scan-1 point is higher under the
 //!   estimated pose (an independent f64 check on the raw points; such pairs
-//!   are either genuinely ambiguous or wrong in the ground truth).
+//!   are either genuinely ambiguous or wrong in the ground truth). Each
+//!   file's table is followed by those pairs' line indices
+//!   ([`Summary::fits_better_pairs`]).
 //! - *t > 0.3 m*: among the pairs of *t median*, the share more than 0.3 m
 //!   off.
 //! - *t unobs.*: among the pairs whose rotation is within 2°, the share whose
@@ -86,6 +88,8 @@ struct Outcome {
 /// One pair's truth and outcomes.
 #[derive(Clone, Debug)]
 struct Row {
+    /// The pair's line in its file, from 0 (the `index` of the JSON output).
+    index: usize,
     overlap: Option<f64>,
     dtheta_deg: f64,
     outcomes: Vec<(Method, Outcome)>,
@@ -99,8 +103,15 @@ pub struct Summary {
 }
 
 impl Summary {
-    /// Adds one pair: `estimates` pairs each method with its estimate.
-    pub fn add(&mut self, truth: &Truth, pair: &PairRecord, estimates: &[(Method, &PairEstimate)]) {
+    /// Adds pair `index` (its line in the file, from 0): `estimates` pairs
+    /// each method with its estimate.
+    pub fn add(
+        &mut self,
+        index: usize,
+        truth: &Truth,
+        pair: &PairRecord,
+        estimates: &[(Method, &PairEstimate)],
+    ) {
         let dtheta_deg = wrap_deg(truth.dtheta.to_degrees());
         let mut outcomes: Vec<(Method, Outcome)> = estimates
             .iter()
@@ -141,6 +152,7 @@ impl Summary {
             },
         ));
         self.rows.push(Row {
+            index,
             overlap: truth.check.overlap_gt,
             dtheta_deg,
             outcomes,
@@ -190,6 +202,54 @@ impl Summary {
             let _ = writeln!(out, "\n{} line(s) failed and are not counted.", self.errors);
         }
         out
+    }
+}
+
+impl Summary {
+    /// The pairs behind the table's "of which fit better" column, by line
+    /// index (one file's summary: pooled files would mix their indices):
+    /// for each method, those at overlap ≥ 0.5, then the others.
+    pub fn fits_better_pairs(&self) -> String {
+        let mut out = String::new();
+        let methods = self
+            .rows
+            .first()
+            .map(|r| r.outcomes.iter().map(|(m, _)| *m));
+        for method in methods.into_iter().flatten() {
+            let (mut overlapping, mut others) = (Vec::new(), Vec::new());
+            for row in &self.rows {
+                if row
+                    .outcomes
+                    .iter()
+                    .any(|(m, o)| *m == method && o.fits_better)
+                {
+                    let list = if row.overlap.is_some_and(|o| o >= 0.5) {
+                        &mut overlapping
+                    } else {
+                        &mut others
+                    };
+                    list.push(row.index.to_string());
+                }
+            }
+            if !overlapping.is_empty() || !others.is_empty() {
+                let _ = writeln!(
+                    out,
+                    "{}: wrong unflagged pairs that fit the scans better than the truth (line index): overlap ≥ 0.5: {}; lower: {}",
+                    method.name(),
+                    list_or_none(&overlapping),
+                    list_or_none(&others)
+                );
+            }
+        }
+        out
+    }
+}
+
+fn list_or_none(items: &[String]) -> String {
+    if items.is_empty() {
+        "none".into()
+    } else {
+        items.join(", ")
     }
 }
 
@@ -309,4 +369,47 @@ fn fits_better_than_truth(
     };
     aligned_share(pair, dtheta_deg.to_radians(), d)
         > aligned_share(pair, truth.dtheta, (truth.dx, truth.dy))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(index: usize, overlap: f64, fits_better: bool) -> Row {
+        let outcome = Outcome {
+            error_deg: if fits_better { 170.0 } else { 0.3 },
+            flagged: false,
+            translation_error: None,
+            unobservable: false,
+            fits_better,
+        };
+        Row {
+            index,
+            overlap: Some(overlap),
+            dtheta_deg: 10.0,
+            outcomes: vec![(Method::Improved, outcome)],
+        }
+    }
+
+    #[test]
+    fn fits_better_pairs_are_listed_by_overlap() {
+        let summary = Summary {
+            rows: vec![
+                row(3, 0.7, true),
+                row(4, 0.9, false),
+                row(8, 0.2, true),
+                row(11, 0.5, true),
+            ],
+            errors: 0,
+        };
+        assert_eq!(
+            summary.fits_better_pairs(),
+            "improved: wrong unflagged pairs that fit the scans better than the truth (line index): overlap ≥ 0.5: 3, 11; lower: 8\n"
+        );
+        let none = Summary {
+            rows: vec![row(0, 0.9, false)],
+            errors: 0,
+        };
+        assert_eq!(none.fits_better_pairs(), "");
+    }
 }

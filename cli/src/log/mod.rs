@@ -368,7 +368,8 @@ impl Run<'_> {
                         Mode::Improved => Method::Improved,
                         Mode::Paper => Method::Paper,
                     };
-                    self.summary.add(&truth, &pair, &[(method, &estimates[0])]);
+                    self.summary
+                        .add(index, &truth, &pair, &[(method, &estimates[0])]);
                 }
                 _ => self.summary.add_error(),
             }
