@@ -140,11 +140,10 @@ fn fit(shifts: &[ColumnShift], candidates: Choice) -> Option<Pose> {
             fit = solve(shifts, &choices)?;
         }
     }
-    let scale = weight_scale(shifts, &choices)?;
     let (mut sum_w, mut sum_wr2, mut columns) = (0u64, 0u64, 0u8);
     for (c, k) in shifts.iter().zip(choices) {
         if let (Some((_, w)), Some(r)) = (candidate(c, k), residual_of(c, k, fit.t)) {
-            let w = u64::from(scale.apply(w));
+            let w = u64::from(fit.scale.apply(w));
             // |r| < 2²² (64 px): r² < 2⁴⁴ (Q32), w·r² < 2⁶⁰.
             let r = r.unsigned_abs().min((1 << 22) - 1) as u32;
             sum_w += w;
@@ -351,11 +350,13 @@ fn weight_scale(
     Some(WeightScale { shift: 15 - top })
 }
 
-/// A solved fit: `t` (Q16 pixels) and the unobservable direction, if any
-/// (unit vector, Q16).
+/// A solved fit: `t` (Q16 pixels), the unobservable direction, if any
+/// (unit vector, Q16), and the scale of the chosen candidates' weights
+/// (for the residual).
 struct Fit {
     t: Xy,
     unobservable: Option<(i32, i32)>,
+    scale: WeightScale,
 }
 
 /// Weighted least squares over the chosen candidates; the component along
@@ -419,6 +420,7 @@ fn solve(shifts: &[ColumnShift], choices: &[Choice; MAX_FIT_COLUMNS]) -> Option<
         return Some(Fit {
             t: (component(ex), component(ey)),
             unobservable: Some((q16(-ey), q16(ex))),
+            scale,
         });
     }
     // Cramer's rule: t = (c·u − b·v, a·v − b·u) / det; det (Q48) ≥
@@ -430,6 +432,7 @@ fn solve(shifts: &[ColumnShift], choices: &[Choice; MAX_FIT_COLUMNS]) -> Option<
             saturate(dot_over(a, v, -b, u, det_q24) >> 8),
         ),
         unobservable: None,
+        scale,
     })
 }
 
