@@ -30,7 +30,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use hough_heading::{Mode, ScaleRange, Score, Thresholds};
+use hough_heading::{Estimate, Mode, ScaleRange, Score, Thresholds};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
@@ -146,6 +146,17 @@ impl EstimatorArgs {
     /// An unknown configuration or a threshold outside [0, 1].
     pub fn engine(&self, size: usize) -> Result<Box<dyn Engine>, Fatal> {
         let mut engine = engine_for(size, self.n_theta)?;
+        engine.set_thresholds(self.thresholds()?);
+        engine.set_verification(!self.no_verify);
+        Ok(engine)
+    }
+
+    /// The status thresholds of these options (the library's defaults for
+    /// those not given).
+    ///
+    /// # Errors
+    /// A threshold outside its range.
+    pub fn thresholds(&self) -> Result<Thresholds, Fatal> {
         let mut t = Thresholds::DEFAULT;
         for (name, value, field) in [
             ("--rival-ratio", self.rival_ratio, &mut t.rival_ratio),
@@ -172,9 +183,7 @@ impl EstimatorArgs {
             }
             t.alignment_ratio = Score::from_num(v);
         }
-        engine.set_thresholds(t);
-        engine.set_verification(!self.no_verify);
-        Ok(engine)
+        Ok(t)
     }
 }
 
@@ -565,6 +574,18 @@ pub fn images_result(
     offsets: [(f64, f64); 2],
 ) -> ImagesResult {
     let e = engine.estimate(mode);
+    images_answer(&e, engine.size(), engine.n_theta(), offsets)
+}
+
+/// The `images` answer of an estimate on two grids of `size` cells and
+/// `n_theta` θ steps (also for an estimate against a prepared reference);
+/// the translation is mapped back to the images' own centred coordinates.
+pub fn images_answer(
+    e: &Estimate,
+    size: usize,
+    n_theta: usize,
+    offsets: [(f64, f64); 2],
+) -> ImagesResult {
     let alpha = f64::from(e.alpha.to_degrees());
     let t = e.translation.map(|t| {
         images::unplace_translation(
@@ -608,8 +629,8 @@ pub fn images_result(
                 scans::round(y.to_num::<f64>(), 4),
             ]
         }),
-        size: engine.size(),
-        n_theta: engine.n_theta(),
+        size,
+        n_theta,
     }
 }
 

@@ -395,7 +395,7 @@ impl Run<'_> {
 
 /// Opens the file, undoing gzip (by its magic bytes), with the progress bar
 /// counting the file's bytes.
-fn open(path: &Path, bar: &ProgressBar) -> Result<Box<dyn BufRead>, Fatal> {
+pub fn open(path: &Path, bar: &ProgressBar) -> Result<Box<dyn BufRead>, Fatal> {
     let name = path.display();
     let file = File::open(path).map_err(|e| Fatal::io(format!("{name}: cannot read: {e}")))?;
     if let Ok(meta) = file.metadata() {
@@ -414,7 +414,7 @@ fn open(path: &Path, bar: &ProgressBar) -> Result<Box<dyn BufRead>, Fatal> {
 }
 
 /// The MCAP magic bytes.
-const MCAP_MAGIC: &[u8] = b"\x89MCAP0\r\n";
+pub const MCAP_MAGIC: &[u8] = b"\x89MCAP0\r\n";
 
 /// Runs `log`; the number of failed records and pairs.
 ///
@@ -573,9 +573,14 @@ impl LogArgs {
     }
 }
 
-/// The scan topic (checked to exist) and the odometry topic, from one pass
+/// The scan topic (checked to exist; without `--topic`, the bag's only
+/// `LaserScan` topic, named on stderr) and the odometry topic, from one pass
 /// over the bag.
-fn choose_topics(
+///
+/// # Errors
+/// A usage error listing the bag's topics when the scan topic is missing
+/// or not in the bag, or the odometry topic is of another type.
+pub fn choose_topics(
     args: &LogArgs,
     file: &str,
     input: impl Read,
@@ -583,6 +588,16 @@ fn choose_topics(
     let topics = ros2::topics(input, file)?;
     let topic = match &args.topic {
         Some(t) if topics.contains_key(t) => t.clone(),
+        None => match ros2::only_scan_topic(&topics) {
+            Some(t) => {
+                eprintln!(
+                    "hough-heading: {file}: using {t}, the bag's only {} topic",
+                    ros2::LASER_SCAN
+                );
+                t
+            }
+            None => return Err(ros2::topic_error(file, None, &topics)),
+        },
         other => return Err(ros2::topic_error(file, other.as_deref(), &topics)),
     };
     // A scan topic of another type fails at its first message (named).

@@ -249,6 +249,16 @@ pub fn topic_error(file: &str, asked: Option<&str>, topics: &BTreeMap<String, To
     Fatal::usage(format!("{head}\n{}", list.join("\n")))
 }
 
+/// The bag's only `LaserScan` topic, if it has exactly one (`log` then
+/// needs no `--topic`).
+pub fn only_scan_topic(topics: &BTreeMap<String, TopicInfo>) -> Option<String> {
+    let mut scans = topics.iter().filter(|(_, i)| i.schema == LASER_SCAN);
+    match (scans.next(), scans.next()) {
+        (Some((t, _)), None) => Some(t.clone()),
+        _ => None,
+    }
+}
+
 /// Streams the scans of `topic` and the odometry of `odom_topic` (if any).
 pub struct BagReader<R: Read> {
     messages: mcap::io::MessageReader<R>,
