@@ -273,19 +273,69 @@ fn trajectory_chains_the_estimates_and_the_plot_is_a_png() {
     assert!(bytes.starts_with(b"\x89PNG"));
 }
 
+/// The bundled bag with its `/scan` messages also on `/scan2` (a second
+/// LaserScan topic), written with the `mcap` crate.
+fn bag_with_two_scan_topics(path: &Path) {
+    use std::sync::Arc;
+    let bytes = std::fs::read(data("seattle-bag.mcap")).expect("the bundled bag");
+    let mut out = mcap::Writer::new(std::io::BufWriter::new(
+        std::fs::File::create(path).expect("a scratch file"),
+    ))
+    .expect("a writer");
+    for message in mcap::MessageStream::new(&bytes).expect("a bag") {
+        let message = message.expect("a message");
+        out.write(&message).expect("written");
+        if message.channel.topic == "/scan" {
+            let mut channel = (*message.channel).clone();
+            channel.topic = "/scan2".into();
+            channel.id += 100;
+            let copy = mcap::Message {
+                channel: Arc::new(channel),
+                ..message.clone()
+            };
+            out.write(&copy).expect("written");
+        }
+    }
+    out.finish().expect("finished");
+}
+
+#[test]
+fn a_bag_with_one_scan_topic_needs_no_topic_option() {
+    let o = tool(&["log", "-q", &data("seattle-bag.mcap")]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("using /scan, the bag's only sensor_msgs/msg/LaserScan topic"),
+        "{}",
+        stderr(&o)
+    );
+    let with_topic = tool(&["log", "-q", &data("seattle-bag.mcap"), "--topic", "/scan"]);
+    assert_eq!(stdout(&o), stdout(&with_topic));
+    assert_eq!(json_lines(&o).len(), 11);
+}
+
 #[test]
 fn a_missing_topic_lists_the_bags_topics() {
-    let o = tool(&["log", &data("seattle-bag.mcap")]);
+    let dir = std::env::temp_dir().join(format!("hh-two-topics-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("scratch dir");
+    let bag = dir.join("two.mcap");
+    bag_with_two_scan_topics(&bag);
+    let o = tool(&["log", &bag.display().to_string()]);
     assert_eq!(o.status.code(), Some(2));
     let e = stderr(&o);
     for t in [
         "--topic",
         "/scan  (sensor_msgs/msg/LaserScan, 12 messages)",
+        "/scan2  (sensor_msgs/msg/LaserScan, 12 messages)",
         "/odom  (nav_msgs/msg/Odometry",
         "/chatter  (std_msgs/msg/String",
     ] {
         assert!(e.contains(t), "{t} not in {e}");
     }
+    // Either topic then reads the same scans.
+    let second = tool(&["log", "-q", &bag.display().to_string(), "--topic", "/scan2"]);
+    assert_eq!(second.status.code(), Some(0), "{}", stderr(&second));
+    assert_eq!(json_lines(&second).len(), 11);
+    let _ = std::fs::remove_dir_all(&dir);
     let unknown = tool(&["log", &data("seattle-bag.mcap"), "--topic", "/nope"]);
     assert_eq!(unknown.status.code(), Some(2));
     assert!(stderr(&unknown).contains("no messages on topic /nope"));

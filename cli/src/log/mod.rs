@@ -12,6 +12,7 @@
 //! scan.
 
 pub mod carmen;
+pub mod evo;
 pub mod ros2;
 pub mod trajectory;
 
@@ -212,16 +213,21 @@ pub struct LogArgs {
     /// One standard deviation of the odometry prior, degrees.
     #[arg(long, value_name = "DEGREES", default_value_t = 10.0)]
     pub prior_sigma: f64,
-    /// Writes the chained consecutive estimates as poses (CSV: scan, t, x,
-    /// y, θ, source, with the odometry's and the log's poses).
-    #[arg(long, value_name = "CSV")]
+    /// Writes the chained consecutive estimates as poses: `FILE.tum` (TUM,
+    /// `t x y z qx qy qz qw`, times from the recording) or `FILE.kitti`
+    /// (KITTI rows) for evo, with `FILE-reference` (the log's poses) and
+    /// `FILE-odometry` beside it; any other name: CSV (scan, t, x, y, θ,
+    /// source, with the odometry's and the log's poses).
+    #[arg(long, value_name = "FILE")]
     pub trajectory: Option<PathBuf>,
     /// Draws the trajectory over the odometry's (and the log's poses), with
     /// the scans projected (PNG).
     #[arg(long, value_name = "PNG")]
     pub plot: Option<PathBuf>,
     /// Scores the estimates against the log's poses (the corrected poses of a
-    /// Radish `-corrected` log's `FLASER` lines), like `scans --summary`.
+    /// Radish `-corrected` log's `FLASER` lines), like `scans --summary`;
+    /// with consecutive pairs also the chained trajectory's (and the
+    /// odometry's) APE and RPE, as `evo_ape` / `evo_rpe` define them.
     #[arg(long)]
     pub summary: bool,
     /// Only the first N scans.
@@ -490,7 +496,11 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
         pairs: 0,
         failed: 0,
         summary: Summary::default(),
-        trajectory: (args.trajectory.is_some() || args.plot.is_some()).then(Trajectory::default),
+        // `--summary` on consecutive pairs also scores the chain (APE, RPE).
+        trajectory: (args.trajectory.is_some()
+            || args.plot.is_some()
+            || (args.summary && args.pairs == PairsArg::Consecutive))
+            .then(Trajectory::default),
         stdout_closed: false,
         bar: bar.clone(),
     };
@@ -547,10 +557,17 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
             args.estimator.n_theta,
             run.summary.table()
         );
+        if let Some(errors) = run.trajectory.as_ref().and_then(evo::report) {
+            eprintln!("{errors}");
+        }
     }
     if let Some(t) = &run.trajectory {
         if let Some(path) = &args.trajectory {
-            t.write_csv(path)?;
+            let written = evo::write(t, path)?;
+            if !args.quiet && evo::TrajectoryFormat::of(path) != evo::TrajectoryFormat::Csv {
+                let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+                eprintln!("hough-heading: trajectory written: {}", names.join(", "));
+            }
         }
         if let Some(path) = &args.plot {
             let name = args
