@@ -123,7 +123,7 @@ fn images_json(
     let options: ImageOptions = parse_options(&args)?;
     let (a, b) = (image_of("a", &a)?, image_of("b", &b)?);
     py.detach(|| on_big_stack(|| images_text(&a, &b, &options)))
-        .map_err(|e| PyRuntimeError::new_err(e))?
+        .map_err(PyRuntimeError::new_err)?
         .map_err(value_error)
 }
 
@@ -308,7 +308,7 @@ fn scans_json(
             scan_answer(engine.as_mut(), &pair, &grid, mode, prior, 0)
         })
     })
-    .map_err(|e| PyRuntimeError::new_err(e))?
+    .map_err(PyRuntimeError::new_err)?
     .map_err(value_error)
 }
 
