@@ -11,8 +11,8 @@ use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 
 use crate::{
-    image_of, images_text, parse_options, record_of, scan_answer, value_error, ImageOptions,
-    ScanAnswer, ScanGrid, ScanIn, ScanOptions, STACK_BYTES,
+    image_of, images_text, parse_options, record_of, scan_answer, value_error, GridIn,
+    ImageOptions, ScanAnswer, ScanGrid, ScanIn, ScanOptions, STACK_BYTES,
 };
 
 /// Threads to use: `threads`, or every core when 0; never more than `jobs`.
@@ -79,21 +79,17 @@ pub fn run_parallel<S, T: Send>(
 /// `scans` of the tool on many pairs: one JSON line each (index = position;
 /// a failed pair is the tool's `"status": "error"` line), with the extras.
 #[pyfunction]
-#[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (pairs, args, size, cell, connect, disc, nan_ok, threads))]
+#[pyo3(signature = (pairs, args, grid, threads))]
 fn scans_json_batch(
     py: Python<'_>,
     pairs: Vec<(ScanIn<'_>, ScanIn<'_>)>,
     args: Vec<String>,
-    size: usize,
-    cell: Option<f32>,
-    connect: f32,
-    disc: bool,
-    nan_ok: bool,
+    grid: GridIn,
     threads: usize,
 ) -> PyResult<Vec<ScanAnswer>> {
     let options: ScanOptions = parse_options(&args)?;
-    let grid = ScanGrid::new(size, cell, connect, disc)?;
+    let nan_ok = grid.4;
+    let grid = ScanGrid::new(&grid)?;
     // Unknown configurations and bad thresholds fail here, once.
     options.estimator.engine(grid.size).map_err(value_error)?;
     let records = pairs

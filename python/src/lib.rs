@@ -137,9 +137,9 @@ pub struct ScanGrid {
 }
 
 impl ScanGrid {
-    /// From the Python call's numbers: `cell` 0 or below means per pair,
-    /// `connect` 0 draws one cell per beam.
-    pub fn new(size: usize, cell: Option<f32>, connect: f32, disc: bool) -> PyResult<Self> {
+    /// From the Python call's numbers `(size, cell, connect, disc, _)`:
+    /// `cell` `None` means per pair, `connect` 0 draws one cell per beam.
+    pub fn new(&(size, cell, connect, disc, _): &GridIn) -> PyResult<Self> {
         if let Some(c) = cell.filter(|c| !(c.is_finite() && *c > 0.0)) {
             return Err(value_error(format!(
                 "cell={c}: must be a positive number of metres (or None: per pair)"
@@ -160,6 +160,10 @@ impl ScanGrid {
         })
     }
 }
+
+/// The grid options from Python: side, metres per cell (`None`: per pair),
+/// segment gap (metres, 0: none), disc only, NaN ranges allowed.
+pub type GridIn = (usize, Option<f32>, f32, bool, bool);
 
 /// A scan from Python: ranges (metres), `angle_min`, `angle_increment`,
 /// `max_range`, sensor offset `(x, y, θ)` in the robot frame.
@@ -277,22 +281,18 @@ pub fn scan_answer(
 
 /// `scans` of the tool on one pair: its JSON line (index 0) and the extras.
 #[pyfunction]
-#[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (scan1, scan2, args, size, cell, connect, disc, nan_ok, prior))]
+#[pyo3(signature = (scan1, scan2, args, grid, prior))]
 fn scans_json(
     py: Python<'_>,
     scan1: ScanIn<'_>,
     scan2: ScanIn<'_>,
     args: Vec<String>,
-    size: usize,
-    cell: Option<f32>,
-    connect: f32,
-    disc: bool,
-    nan_ok: bool,
+    grid: GridIn,
     prior: Option<(f64, f64)>,
 ) -> PyResult<ScanAnswer> {
     let options: ScanOptions = parse_options(&args)?;
-    let grid = ScanGrid::new(size, cell, connect, disc)?;
+    let nan_ok = grid.4;
+    let grid = ScanGrid::new(&grid)?;
     let prior = prior_of(prior)?;
     let pair = PairRecord {
         scan1: record_of("scan1", &scan1, nan_ok)?,

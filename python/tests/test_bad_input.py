@@ -41,6 +41,7 @@ def grid(size=64):
         (np.array([["a"] * 64] * 64), "dtype"),
         (np.zeros((100, 100), dtype=bool), "accepted: square grids of side 64, 128, 256"),
         (np.zeros((64, 128), dtype=bool), "accepted: square grids of side 64, 128, 256"),
+        (np.zeros((128, 128), dtype=bool), "differs from a's \\(64, 64\\)"),
         (np.zeros((64, 64), dtype=bool), "no occupied pixel"),
     ],
 )

@@ -73,6 +73,10 @@ N_THETAS: Tuple[int, ...] = tuple(sorted({n for _, n in CONFIGURATIONS}))
 _MODES = ("improved", "paper")
 
 
+def _radians(d: Optional[float]) -> Optional[float]:
+    return None if d is None else math.radians(d)
+
+
 def _wrap_deg(d: float) -> float:
     """Degrees to (−180, 180]."""
     r = math.fmod(d, 360.0)
@@ -232,33 +236,22 @@ class Estimate:
         the first (``None`` without verification)."""
         return self._data.get("overlap")
 
+    def _angle(self, key: str, opposite: str) -> Optional[float]:
+        """``key`` from the JSON, or −``opposite`` when the JSON has that."""
+        if key in self._data:
+            return self._data[key]
+        v = self._data.get(opposite)
+        return None if v is None else _wrap_deg(-v)
+
     @property
     def alpha_deg(self) -> Optional[float]:
         """Counter-clockwise rotation of the scene, degrees in (−180, 180]."""
-        if "alpha_deg" in self._data:
-            return self._data["alpha_deg"]
-        d = self._data.get("dtheta_deg")
-        return None if d is None else _wrap_deg(-d)
-
-    @property
-    def alpha_rad(self) -> Optional[float]:
-        """:attr:`alpha_deg` in radians."""
-        a = self.alpha_deg
-        return None if a is None else math.radians(a)
+        return self._angle("alpha_deg", "dtheta_deg")
 
     @property
     def dtheta_deg(self) -> Optional[float]:
         """The robot's heading change (= −alpha), degrees in (−180, 180]."""
-        if "dtheta_deg" in self._data:
-            return self._data["dtheta_deg"]
-        a = self._data.get("alpha_deg")
-        return None if a is None else _wrap_deg(-a)
-
-    @property
-    def dtheta_rad(self) -> Optional[float]:
-        """:attr:`dtheta_deg` in radians."""
-        d = self.dtheta_deg
-        return None if d is None else math.radians(d)
+        return self._angle("dtheta_deg", "alpha_deg")
 
     @property
     def rotation_deg(self) -> Optional[float]:
@@ -267,10 +260,19 @@ class Estimate:
         return self.alpha_deg if self._kind == "images" else self.dtheta_deg
 
     @property
+    def alpha_rad(self) -> Optional[float]:
+        """:attr:`alpha_deg` in radians."""
+        return _radians(self.alpha_deg)
+
+    @property
+    def dtheta_rad(self) -> Optional[float]:
+        """:attr:`dtheta_deg` in radians."""
+        return _radians(self.dtheta_deg)
+
+    @property
     def rotation_rad(self) -> Optional[float]:
         """:attr:`rotation_deg` in radians."""
-        r = self.rotation_deg
-        return None if r is None else math.radians(r)
+        return _radians(self.rotation_deg)
 
     @property
     def candidates(self) -> list:
@@ -512,6 +514,17 @@ def _check_grid_size(arr: np.ndarray, name: str, fit: str, size: Optional[int]) 
         )
 
 
+def _check_pair_sizes(ga: np.ndarray, gb: np.ndarray, names: Tuple[str, str], fit: str,
+                      size: Optional[int]) -> None:
+    _check_grid_size(ga, names[0], fit, size)
+    _check_grid_size(gb, names[1], fit, size)
+    if fit == "none" and ga.shape != gb.shape:
+        raise ValueError(
+            f"{names[1]}: shape {gb.shape} differs from {names[0]}'s {ga.shape}: both views "
+            "must have the same compiled side (or fit='centre')"
+        )
+
+
 def _image_args(fit: Any, size: Any) -> list:
     if fit not in ("none", "centre"):
         raise ValueError(f"fit={fit!r}: expected 'none' or 'centre'")
@@ -616,8 +629,7 @@ def estimate_images(
     args = _estimator_args(n_theta, verify, mode, thresholds) + _scale_args(scale_search)
     args += _image_args(fit, size)
     ga, gb = _grid_array(a, "a"), _grid_array(b, "b")
-    _check_grid_size(ga, "a", fit, size)
-    _check_grid_size(gb, "b", fit, size if size is not None else ga.shape[0])
+    _check_pair_sizes(ga, gb, ("a", "b"), fit, size)
     return Estimate._from_json(_core.images_json(ga, gb, args), "images")
 
 
@@ -681,7 +693,7 @@ def estimate_scans(
     Raises ``ValueError`` for a bad scan or option (the message names it).
     """
     args = _estimator_args(n_theta, verify, mode, thresholds)
-    size_, cell_, connect_, disc_, nan_ok = _scan_options(size, cell, connect, disc, nan)
+    grid = _scan_options(size, cell, connect, disc, nan)
     p = None
     if prior is not None:
         try:
@@ -693,11 +705,7 @@ def estimate_scans(
         _scan_tuple(scan1, "scan1"),
         _scan_tuple(scan2, "scan2"),
         args,
-        size_,
-        cell_,
-        connect_,
-        disc_,
-        nan_ok,
+        grid,
         p,
     )
     return Estimate._from_json(text, "scans", extras)
@@ -723,7 +731,7 @@ def estimate_scans_batch(
     :class:`Estimate` with ``status == 'error'`` and its ``error``, as the
     tool's line; a malformed scan raises ``ValueError`` naming the pair."""
     args = _estimator_args(n_theta, verify, mode, thresholds)
-    size_, cell_, connect_, disc_, nan_ok = _scan_options(size, cell, connect, disc, nan)
+    grid = _scan_options(size, cell, connect, disc, nan)
     tuples = []
     for i, pair in enumerate(pairs):
         try:
@@ -731,9 +739,7 @@ def estimate_scans_batch(
         except (TypeError, ValueError):
             raise ValueError(f"pair {i}: expected (scan1, scan2)") from None
         tuples.append((_scan_tuple(s1, f"pair {i}: scan1"), _scan_tuple(s2, f"pair {i}: scan2")))
-    answers = _core.scans_json_batch(
-        tuples, args, size_, cell_, connect_, disc_, nan_ok, _threads(threads)
-    )
+    answers = _core.scans_json_batch(tuples, args, grid, _threads(threads))
     return [Estimate._from_json(text, "scans", extras) for text, extras in answers]
 
 
@@ -768,8 +774,7 @@ def estimate_images_batch(
         except (TypeError, ValueError):
             raise ValueError(f"pair {i}: expected (a, b)") from None
         ga, gb = _grid_array(a, f"pair {i}: a"), _grid_array(b, f"pair {i}: b")
-        _check_grid_size(ga, f"pair {i}: a", fit, size)
-        _check_grid_size(gb, f"pair {i}: b", fit, size if size is not None else ga.shape[0])
+        _check_pair_sizes(ga, gb, (f"pair {i}: a", f"pair {i}: b"), fit, size)
         arrays.append((ga, gb))
     out = []
     for ok, text in _core.images_json_batch(arrays, args, _threads(threads)):

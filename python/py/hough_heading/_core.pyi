@@ -14,6 +14,9 @@ import numpy.typing as npt
 #: A scan: ranges (metres, float64), angle_min, angle_increment, max_range,
 #: sensor offset (x, y, theta) in the robot frame.
 ScanTuple = Tuple[npt.NDArray[np.float64], float, float, float, Tuple[float, float, float]]
+#: Grid options: side, metres per cell (None: per pair), segment gap (metres,
+#: 0: none), disc only, NaN ranges allowed.
+GridTuple = Tuple[int, Optional[float], float, bool, bool]
 #: Translation in cells (x, y), scale and residual (cells) of a scan pair.
 Extras = Optional[Tuple[float, float, float, float]]
 
@@ -27,11 +30,7 @@ def scans_json(
     scan1: ScanTuple,
     scan2: ScanTuple,
     args: Sequence[str],
-    size: int,
-    cell: Optional[float],
-    connect: float,
-    disc: bool,
-    nan_ok: bool,
+    grid: GridTuple,
     prior: Optional[Tuple[float, float]],
 ) -> Tuple[str, Extras]:
     """One line of ``hough-heading scans`` (index 0) and the extras."""
@@ -39,11 +38,7 @@ def scans_json(
 def scans_json_batch(
     pairs: Sequence[Tuple[ScanTuple, ScanTuple]],
     args: Sequence[str],
-    size: int,
-    cell: Optional[float],
-    connect: float,
-    disc: bool,
-    nan_ok: bool,
+    grid: GridTuple,
     threads: int,
 ) -> List[Tuple[str, Extras]]:
     """``scans_json`` on many pairs, GIL released, ``threads`` threads."""
