@@ -98,7 +98,7 @@ pub fn kitti_line(p: &Pose) -> String {
 }
 
 /// The time stamp of a step: the scan's, or its index when the recording
-/// has none (evo needs one; the note on stderr says so).
+/// has none (evo needs one; [`write`] says so on stderr).
 fn stamp(s: &Step) -> f64 {
     s.time.unwrap_or(s.scan as f64)
 }
@@ -130,6 +130,13 @@ pub fn write(t: &Trajectory, path: &Path) -> Result<Vec<PathBuf>, Fatal> {
     if format == TrajectoryFormat::Csv {
         t.write_csv(path)?;
         return Ok(vec![path.to_path_buf()]);
+    }
+    if format == TrajectoryFormat::Tum && t.steps.iter().any(|s| s.time.is_none()) {
+        eprintln!(
+            "hough-heading: {}: some scans have no time in the recording: their TUM time is \
+             the scan's index",
+            path.display()
+        );
     }
     let mut written = Vec::new();
     for (name, track) in TRACKS {
