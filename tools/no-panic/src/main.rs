@@ -75,6 +75,8 @@ fn opaque_thresholds() -> Thresholds {
         max_shift_fraction: Score::from_bits(opaque(0)),
         alignment_ratio: Score::from_bits(opaque(0)),
         min_overlap: Score::from_bits(opaque(0)),
+        decision_gap: Score::from_bits(opaque(0)),
+        free_space_weight: Score::from_bits(opaque(0)),
     }
 }
 
