@@ -49,7 +49,7 @@ use hough_heading::{
     config::rho_bins, config::row_words, stages::fit_translation, stages::match_profile,
     stages::paper_asymmetry, stages::range_percentile, stages::ColumnShift, stages::ColumnStats,
     stages::Correlation, stages::PeakKind, stages::Shift, stages::Signature,
-    stages::MAX_FIT_COLUMNS, stages::RUNNERS_UP, Angle, Estimator, Grid, Mode, Prior, Raster,
+    stages::MAX_FIT_COLUMNS, stages::RUNNERS_UP, Angle, Estimator, FreeSpace, Grid, Mode, Prior, Raster,
     Reference, ScaleRange, Scan, Score, SensorOffset, Status, Thresholds,
 };
 use proptest::prelude::*;
@@ -495,17 +495,12 @@ fn verification_on_hostile_grids<
             if v {
                 common::check_status_rule::<N>(&plain, &t)?;
             }
-            // The same grid against itself aligns exactly at 0°: 0° is a
-            // candidate, unless the grid is so periodic that other poses
-            // tie with it (then the answer must not be confident).
+            // The same grid against itself aligns exactly at 0°: a confident
+            // answer has 0° among its candidates (a grid so dense or
+            // periodic that other poses tie with 0° is not confident).
             let same = e.estimate(&reference, &g1);
             check(&same, false, s, Some(v))?;
-            if v
-                && same.status != Status::NoStructure
-                && same.status != Status::AmbiguousAxis
-                && same.status != Status::AmbiguousDirection
-                && s.is_none()
-            {
+            if v && same.status == Status::Confident && s.is_none() {
                 let zero = same
                     .candidates
                     .iter()
@@ -854,6 +849,27 @@ fn fuzz_scans() {
             check(&est, false, None, Some(true))?;
             let motion = raster.motion(est.alpha, est.translation.as_ref());
             prop_assert!(motion.dtheta.abs() <= std::f32::consts::PI + 1e-4);
+            // The free space of each scan, and the estimate that uses it.
+            let mut f1 = Grid::<64, 64, 2>::new();
+            let mut f2 = Grid::<64, 64, 2>::new();
+            for (scan, free) in [(&sa, &mut f1), (&sb, &mut f2)] {
+                let traced = raster.free_space(scan, free);
+                prop_assert!(traced as usize <= scan.ranges.len());
+            }
+            let reference = e.reference(&g1);
+            let views = FreeSpace {
+                reference: &f1,
+                current: &f2,
+            };
+            let scans = e.estimate_scans(&reference, &g2, &views, None);
+            check(&scans, false, None, Some(true))?;
+            prop_assert!(
+                scans
+                    .candidates
+                    .iter()
+                    .all(|c| c.free_space.is_some() == c.alignment.is_some()),
+                "{scans:?}"
+            );
             Ok(())
         },
     );

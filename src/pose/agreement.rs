@@ -73,6 +73,8 @@ impl Agreement {
     }
 
     /// Mean of the two violation shares, in [0, 1] (0 without free space).
+    /// (The larger of the two did worse on the real scan pairs: 6.6 %
+    /// wrong among unflagged against 5.8 %.)
     pub(crate) fn violation(&self) -> Score {
         mean(self.forward.violation(), self.backward.violation())
     }

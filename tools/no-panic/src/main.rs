@@ -42,7 +42,7 @@ use hough_heading::{
     stages::vote_column_split, stages::Accumulator, stages::Column, stages::ColumnShift,
     stages::ColumnStats, stages::Correlation, stages::Peak, stages::PeakKind, stages::ScanBeams,
     stages::Shift, stages::Signature, stages::REFERENCE_FORMAT, stages::RUNNERS_UP, Angle, Error,
-    Estimator, Grid, Mode, Prior, Raster, Reference, ScaleRange, Scan, ScanStats, Score,
+    Estimator, FreeSpace, Grid, Mode, Prior, Raster, Reference, ScaleRange, Scan, ScanStats, Score,
     SensorOffset, Thresholds,
 };
 
@@ -157,6 +157,14 @@ fn entry_estimator<
         .with_thresholds(opaque(Thresholds::DEFAULT));
     opaque(verified.estimate(&reference, g2));
     opaque(verified.estimate_with_prior(&reference, g2, opaque(Some(prior))));
+    // Scans: the free space of both views (any grids here).
+    let free = FreeSpace {
+        reference: g2,
+        current: g1,
+    };
+    let on_scans = verified.estimate_scans(&reference, g2, &free, opaque(Some(prior)));
+    opaque(on_scans.runner_up);
+    opaque(e.estimate_scans(&reference, g2, &free, opaque(None)));
     let mut plain = verified.with_verification(false);
     opaque(plain.verification());
     opaque(plain.estimate(&reference, g2));
@@ -362,6 +370,7 @@ fn entry_scan<const W: usize, const H: usize, const RW: usize>(grid: &mut Grid<W
         let raster = raster.connect(opaque(0.0)).clip_to_disc(opaque(false));
         opaque(raster.cell());
         let stats: ScanStats = raster.rasterize(&scan, grid);
+        opaque(raster.free_space(&scan, grid));
         let beams = ScanBeams::new(&scan, &raster);
         opaque(beams.end(opaque(0), opaque(0.0)));
         opaque(stats.dropped());
