@@ -67,8 +67,8 @@ mod firmware {
     use core::mem::size_of;
 
     use hough_heading::{
-        estimator, grid, reference, Estimate, FreeSpace, Mode, Raster, Scan, ScanStats, SensorOffset,
-        Thresholds,
+        estimator, grid, reference, Estimate, FreeSpace, Mode, Raster, Scan, ScanStats,
+        SensorOffset, Thresholds,
     };
     use semihosting::fs::File;
     use semihosting::io::{Read, Seek, SeekFrom};
@@ -328,8 +328,7 @@ mod firmware {
         measure(|| ());
         for _ in 0..count {
             let [free_first, free_second] = &mut free;
-            let window =
-                first_scan(&mut pairs, &mut grid, free_first).unwrap_or_else(|m| fail(m));
+            let window = first_scan(&mut pairs, &mut grid, free_first).unwrap_or_else(|m| fail(m));
             let occupied_first = grid.occupied();
             let reference = measure(|| estimator.reference(&grid));
             let second = second_scan(&mut pairs, &window, &mut grid, free_second)

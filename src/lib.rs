@@ -160,8 +160,7 @@ pub mod stages {
     pub use crate::reference::{Profile, PROFILE_COLUMNS, REFERENCE_FORMAT};
     pub use crate::scan::{
         range_percentile, BeamEnd, ScanBeams, AUTO_MAX_RADIUS_M, AUTO_MIN_RADIUS_M,
-        AUTO_PERCENTILE, BEAM_FAR_CELLS, BEAM_NEAR_CELLS, FREE_MARGIN_CELLS,
-        FREE_MARGIN_SHIFT,
+        AUTO_PERCENTILE, BEAM_FAR_CELLS, BEAM_NEAR_CELLS, FREE_MARGIN_CELLS, FREE_MARGIN_SHIFT,
     };
     pub use crate::signature::{ColumnStats, PeakKind, Signature, ASYMMETRY_FRACTION_BITS};
     pub use crate::trig::{TrigTable, TRIG_FRACTION_BITS};

@@ -133,7 +133,7 @@ pub struct EstimatorArgs {
     #[arg(long, value_name = "RATIO")]
     pub alignment_ratio: Option<f64>,
     /// Tuning (verification): ambiguous unless the winner's support leads
-    /// the runner-up's (≥ 5° away) by this much (library default 0.06;
+    /// the runner-up's (≥ 5° away) by this much (library default 0.08;
     /// docs/confidence.md).
     #[arg(long, value_name = "GAP")]
     pub decision_gap: Option<f64>,
@@ -167,7 +167,6 @@ impl EstimatorArgs {
             ("--max-shift", self.max_shift, &mut t.max_shift_fraction),
             ("--min-overlap", self.min_overlap, &mut t.min_overlap),
             ("--decision-gap", self.decision_gap, &mut t.decision_gap),
-
         ] {
             if let Some(v) = value {
                 if !(0.0..=1.0).contains(&v) {

@@ -4,11 +4,11 @@
 
 use std::collections::HashSet;
 
-use hough_heading::{
-    estimator, grid, stages::FREE_MARGIN_CELLS, stages::FREE_MARGIN_SHIFT, Angle, FreeSpace,
-    Mode, Raster, Scan, SensorOffset, Status,
-};
 use host_tests::raycast::{Laser, Wall};
+use hough_heading::{
+    estimator, grid, stages::FREE_MARGIN_CELLS, stages::FREE_MARGIN_SHIFT, Angle, FreeSpace, Mode,
+    Raster, Scan, SensorOffset, Status,
+};
 use proptest::prelude::*;
 
 mod common;
@@ -41,12 +41,17 @@ fn free_reference(scan: &Scan<'_>, cell: f64) -> HashSet<(i64, i64)> {
     let mut cells = HashSet::new();
     for i in 0..scan.ranges.len() {
         let Some((c, s, r)) = beam(i) else { continue };
-        let reach = [i.checked_sub(1).and_then(beam), Some((c, s, r)), beam(i + 1)]
-            .into_iter()
-            .flatten()
-            .map(|b| b.2)
-            .fold(r, f64::min);
-        let free = reach - f64::from(FREE_MARGIN_CELLS) - reach / f64::from(1u32 << FREE_MARGIN_SHIFT);
+        let reach = [
+            i.checked_sub(1).and_then(beam),
+            Some((c, s, r)),
+            beam(i + 1),
+        ]
+        .into_iter()
+        .flatten()
+        .map(|b| b.2)
+        .fold(r, f64::min);
+        let free =
+            reach - f64::from(FREE_MARGIN_CELLS) - reach / f64::from(1u32 << FREE_MARGIN_SHIFT);
         let mut t = 0.0;
         while t <= free {
             let (x, y) = (origin.0 + t * c, origin.1 + t * s);
@@ -128,7 +133,10 @@ fn view(laser: &Laser, ranges: &[f32], raster: &Raster) -> (G128, G128) {
 
 /// The scene rotation α for a robot that turned by `dtheta_deg` (α = −dθ).
 fn near_alpha(alpha: Angle, dtheta_deg: f64, tolerance_deg: f32) -> bool {
-    alpha.distance(Angle::from_degrees(-dtheta_deg as f32)).to_degrees() < tolerance_deg
+    alpha
+        .distance(Angle::from_degrees(-dtheta_deg as f32))
+        .to_degrees()
+        < tolerance_deg
 }
 
 /// A corridor 2 m wide along x, closed at x = 0 and x = 10 m, with a

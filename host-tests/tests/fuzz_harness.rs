@@ -49,8 +49,8 @@ use hough_heading::{
     config::rho_bins, config::row_words, stages::fit_translation, stages::match_profile,
     stages::paper_asymmetry, stages::range_percentile, stages::ColumnShift, stages::ColumnStats,
     stages::Correlation, stages::PeakKind, stages::Shift, stages::Signature,
-    stages::MAX_FIT_COLUMNS, stages::RUNNERS_UP, Angle, Estimator, FreeSpace, Grid, Mode, Prior, Raster,
-    Reference, ScaleRange, Scan, Score, SensorOffset, Status, Thresholds,
+    stages::MAX_FIT_COLUMNS, stages::RUNNERS_UP, Angle, Estimator, FreeSpace, Grid, Mode, Prior,
+    Raster, Reference, ScaleRange, Scan, Score, SensorOffset, Status, Thresholds,
 };
 use proptest::prelude::*;
 

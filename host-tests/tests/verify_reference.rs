@@ -288,7 +288,9 @@ fn finding_an_ambiguous_estimate_lists_its_rival() {
     let e = E::new(Mode::Improved).estimate_pair(&g1, &g2);
     if matches!(e.status, Status::AmbiguousAxis | Status::AmbiguousDirection) {
         // The runner-up is reported whatever happened to the candidates.
-        let runner_up = e.runner_up.expect("an ambiguous estimate names its runner-up");
+        let runner_up = e
+            .runner_up
+            .expect("an ambiguous estimate names its runner-up");
         let winner = e.candidates[0].support.expect("verified");
         assert!(
             winner - runner_up.support.expect("verified") < Thresholds::DEFAULT.decision_gap,

@@ -82,8 +82,13 @@ impl<
                 .to_num::<u32>()
                 .max(1);
             let free_penalty = free.map(|f| (f.reference, penalty));
-            let mut aligner =
-                Aligner::new(reference.grid(), &pyramid, grid, free_penalty, inv_scale_q16);
+            let mut aligner = Aligner::new(
+                reference.grid(),
+                &pyramid,
+                grid,
+                free_penalty,
+                inv_scale_q16,
+            );
             // 1. Both halves of the strongest distinct peaks, each with the
             //    best translation over the whole window.
             let mut peaks: Vec<&Peak, VERIFY_PEAKS> = Vec::new();
@@ -165,12 +170,8 @@ impl<
             };
             // 4. ICP below one cell and one θ step; kept unless it loses
             //    alignment (e.g. drawn onto a neighbouring wall).
-            let (alpha, u_q8) = refine::<W, H, RW, N>(
-                reference.grid(),
-                grid,
-                &winner.placement,
-                inv_scale_q16,
-            );
+            let (alpha, u_q8) =
+                refine::<W, H, RW, N>(reference.grid(), grid, &winner.placement, inv_scale_q16);
             aligner.rotate::<N>(alpha, u_q8);
             let refined = aligner.score((0, 0));
             // The decision stays with the seeds' agreements: each judged at
@@ -212,7 +213,9 @@ impl<
             Status::LowOverlap
         } else if gap < t.decision_gap {
             let near_half_turn = rival.is_some_and(|r| {
-                r.placement.alpha.distance(winner.placement.alpha + Angle::HALF_TURN)
+                r.placement
+                    .alpha
+                    .distance(winner.placement.alpha + Angle::HALF_TURN)
                     < Angle::from_steps_q16(((N / 8) as i64) << 16, N)
             });
             if near_half_turn {
@@ -342,7 +345,11 @@ fn seed_at<const W: usize, const H: usize, const RW: usize, const N: usize, cons
     ratio: Score,
 ) {
     let step = Angle::from_steps_q16(1 << 16, N);
-    if seeds.is_full() || seeds.iter().any(|s| s.placement.alpha.distance(alpha) < step) {
+    if seeds.is_full()
+        || seeds
+            .iter()
+            .any(|s| s.placement.alpha.distance(alpha) < step)
+    {
         return;
     }
     aligner.rotate::<N>(alpha, (0, 0));

@@ -106,7 +106,10 @@ pub(crate) fn agreement<const W: usize, const H: usize, const RW: usize, const N
         (x + u_q16.0, y + u_q16.1)
     });
     let backward = tally(reference, current, free.map(|f| f.current), |(x, y)| {
-        let (dx, dy) = ((i64::from(x) << 15) - u_q16.0, (i64::from(y) << 15) - u_q16.1);
+        let (dx, dy) = (
+            (i64::from(x) << 15) - u_q16.0,
+            (i64::from(y) << 15) - u_q16.1,
+        );
         let (c, s) = (i64::from(cos), i64::from(sin));
         // Q16 × Q15 → Q16; |d| < 2²⁸ (cells < 2¹²): the products fit.
         let (rx, ry) = ((c * dx - s * dy) >> 15, (s * dx + c * dy) >> 15);

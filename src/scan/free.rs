@@ -126,7 +126,8 @@ impl Beam {
         free: &mut Grid<W, H, RW>,
     ) {
         let reach = reach.min(self.length);
-        let free_length = reach - (i64::from(FREE_MARGIN_CELLS) << 16) - (reach >> FREE_MARGIN_SHIFT);
+        let free_length =
+            reach - (i64::from(FREE_MARGIN_CELLS) << 16) - (reach >> FREE_MARGIN_SHIFT);
         if free_length <= 0 || self.length <= 0 {
             return;
         }
@@ -147,12 +148,7 @@ impl Beam {
 
 /// The shortest length among the beams with a return.
 fn shortest(beams: &[Option<Beam>]) -> i64 {
-    beams
-        .iter()
-        .flatten()
-        .map(|b| b.length)
-        .min()
-        .unwrap_or(0)
+    beams.iter().flatten().map(|b| b.length).min().unwrap_or(0)
 }
 
 #[cfg(test)]
@@ -175,9 +171,7 @@ mod tests {
             offset: SensorOffset::default(),
         };
         let mut free = G::new();
-        let traced = Raster::with_cell(0.1)
-            .unwrap()
-            .free_space(&scan, &mut free);
+        let traced = Raster::with_cell(0.1).unwrap().free_space(&scan, &mut free);
         assert_eq!(traced, 1);
         // The sensor at x = 0 is in column 32, row 32 (`set_q16`'s cell of
         // the point (0, 0)); the return at x = 20 cells in column 52; free
@@ -220,9 +214,7 @@ mod tests {
             offset: SensorOffset::default(),
         };
         let mut free = G::new();
-        Raster::with_cell(0.1)
-            .unwrap()
-            .free_space(&scan, &mut free);
+        Raster::with_cell(0.1).unwrap().free_space(&scan, &mut free);
         // Both traced to at most 10 − 2 − 10/32 cells from the sensor.
         for (col, row) in free.occupied_cells() {
             let (x, y) = (col as f32 - 32.0, 32.0 - row as f32);

@@ -73,12 +73,7 @@ pub fn check_status_rule<const N: usize>(
     };
     let confident = gap >= t.decision_gap;
     prop_assert_eq!(e.status == Status::Confident, confident, "{:?}", e);
-    prop_assert_eq!(
-        e.confidence >= Score::from_num(0.5),
-        confident,
-        "{:?}",
-        e
-    );
+    prop_assert_eq!(e.confidence >= Score::from_num(0.5), confident, "{:?}", e);
     if let (false, Some(r)) = (confident, e.runner_up) {
         let octant = (N / 8) as f64 * 360.0 / N as f64;
         let separation = (N / 72).max(2) as f64 * 360.0 / N as f64;
