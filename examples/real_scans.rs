@@ -194,7 +194,7 @@ mod firmware {
     fn first_scan(
         pairs: &mut Pairs,
         grid: &mut ScanGrid,
-        free: &mut ScanGrid,
+        free: Option<&mut ScanGrid>,
     ) -> Result<Window, &'static str> {
         let mut index = [0u8; 4];
         pairs.read(&mut index)?;
@@ -210,10 +210,12 @@ mod firmware {
         })
         .ok_or("no usable cell size")?;
         grid.clear_all();
-        free.clear_all();
         let stats = measure(|| {
             let stats = raster.rasterize(&scans[0], grid);
-            raster.free_space(&scans[0], free);
+            if let Some(free) = free {
+                free.clear_all();
+                raster.free_space(&scans[0], free);
+            }
             stats
         });
         Ok(Window {
@@ -233,7 +235,7 @@ mod firmware {
         pairs: &mut Pairs,
         window: &Window,
         grid: &mut ScanGrid,
-        free: &mut ScanGrid,
+        free: Option<&mut ScanGrid>,
     ) -> Result<ScanStats, &'static str> {
         pairs.seek(window.second_at)?;
         let mut ranges = [0f32; MAX_BEAMS];
@@ -243,10 +245,12 @@ mod firmware {
         }
         let scan = scan(&header, &ranges);
         grid.clear_all();
-        free.clear_all();
         Ok(measure(|| {
             let stats = window.raster.rasterize(&scan, grid);
-            window.raster.free_space(&scan, free);
+            if let Some(free) = free {
+                free.clear_all();
+                window.raster.free_space(&scan, free);
+            }
             stats
         }))
     }
@@ -284,14 +288,15 @@ mod firmware {
     #[cfg_attr(target_arch = "riscv32", riscv_rt::entry)]
     fn main() -> ! {
         defmt::println!(
-            "config side={=usize} n_theta={=usize} max_beams={=usize} estimator={=usize} reference={=usize} grid={=usize} ranges={=usize}",
+            "config side={=usize} n_theta={=usize} max_beams={=usize} estimator={=usize} reference={=usize} grid={=usize} ranges={=usize} free_space={=bool}",
             SIDE,
             N_THETA,
             MAX_BEAMS,
             size_of::<Estimator>(),
             size_of::<Reference>(),
             size_of::<ScanGrid>(),
-            2 * MAX_BEAMS * size_of::<f32>()
+            2 * MAX_BEAMS * size_of::<f32>(),
+            cfg!(not(hh_small_ram))
         );
         let mut path = [0u8; 256];
         if let Some(to) = path.get_mut(..PATH.len()) {
@@ -322,22 +327,41 @@ mod firmware {
             .with_verification(true);
         let mut grid = ScanGrid::new();
         // The free space of both scans (`Raster::free_space`): what their
-        // beams saw through, for `Estimator::estimate_scans`.
+        // beams saw through, for `Estimator::estimate_scans`. Not on the
+        // 16 KiB micro:bit (`hh_small_ram`): its two 2 KiB grids do not fit
+        // beside the verified estimate; there the estimate uses the grids
+        // alone, as `hough-heading scans --no-free-space` does.
+        #[cfg(not(hh_small_ram))]
         let mut free = [ScanGrid::new(), ScanGrid::new()];
         // The markers' own cost, subtracted by the budget tool.
         measure(|| ());
         for _ in 0..count {
-            let [free_first, free_second] = &mut free;
-            let window = first_scan(&mut pairs, &mut grid, free_first).unwrap_or_else(|m| fail(m));
+            #[cfg(not(hh_small_ram))]
+            let (mut free_first, mut free_second) = {
+                let [first, second] = &mut free;
+                (Some(first), Some(second))
+            };
+            #[cfg(hh_small_ram)]
+            let (mut free_first, mut free_second): (
+                Option<&mut ScanGrid>,
+                Option<&mut ScanGrid>,
+            ) = (None, None);
+            let window = first_scan(&mut pairs, &mut grid, free_first.as_deref_mut())
+                .unwrap_or_else(|m| fail(m));
             let occupied_first = grid.occupied();
             let reference = measure(|| estimator.reference(&grid));
-            let second = second_scan(&mut pairs, &window, &mut grid, free_second)
+            let second = second_scan(&mut pairs, &window, &mut grid, free_second.as_deref_mut())
                 .unwrap_or_else(|m| fail(m));
-            let views = FreeSpace {
-                reference: free_first,
-                current: free_second,
+            let estimate = match (free_first.as_deref(), free_second.as_deref()) {
+                (Some(reference_free), Some(current_free)) => {
+                    let views = FreeSpace {
+                        reference: reference_free,
+                        current: current_free,
+                    };
+                    measure(|| estimator.estimate_scans(&reference, &grid, &views, None))
+                }
+                _ => measure(|| estimator.estimate(&reference, &grid)),
             };
-            let estimate = measure(|| estimator.estimate_scans(&reference, &grid, &views, None));
             let stats = [window.stats, second];
             report(
                 &window,

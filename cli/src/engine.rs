@@ -64,6 +64,9 @@ pub trait Engine {
     fn set_scale_search(&mut self, range: Option<ScaleRange>);
     /// Turns the improved mode's verification by alignment on or off.
     fn set_verification(&mut self, on: bool);
+    /// Whether estimates on rasterized scans use their free space (the
+    /// default) or the grids alone.
+    fn set_free_space(&mut self, on: bool);
     /// Clears the grid of `view` and draws `scan` into it, with the cells its
     /// beams crossed (`Raster::free_space`): an estimate on two rasterized
     /// scans uses their free space (`Estimator::estimate_scans`).
@@ -96,6 +99,8 @@ struct Config<
     grids: [Grid<W, H, RW>; 2],
     /// The free space of each view, when it was rasterized from a scan.
     free: [Option<Grid<W, H, RW>>; 2],
+    /// Estimates use `free` when both views have it.
+    use_free: bool,
     improved: Estimator<W, H, RW, N, HALF, RHO, PW>,
     paper: Estimator<W, H, RW, N, HALF, RHO, PW>,
 }
@@ -135,6 +140,10 @@ impl<
     fn set_verification(&mut self, on: bool) {
         let improved = self.improved.clone().with_verification(on);
         self.improved = improved;
+    }
+
+    fn set_free_space(&mut self, on: bool) {
+        self.use_free = on;
     }
 
     fn rasterize(&mut self, view: View, scan: &Scan<'_>, raster: &Raster) -> ScanStats {
@@ -177,7 +186,7 @@ impl<
         // `estimate_pair` is exactly this with no prior and no scans.
         let reference = estimator.reference(first);
         match &self.free {
-            [Some(reference_free), Some(current_free)] => {
+            [Some(reference_free), Some(current_free)] if self.use_free => {
                 let free = FreeSpace {
                     reference: reference_free,
                     current: current_free,
@@ -270,6 +279,7 @@ macro_rules! configurations {
                 > {
                     grids: [Grid::new(), Grid::new()],
                     free: [None, None],
+                    use_free: true,
                     improved: Estimator::new(Mode::Improved),
                     paper: Estimator::new(Mode::Paper),
                 })),)*

@@ -141,6 +141,10 @@ pub struct EstimatorArgs {
     /// share in the support, in [0, 64] (library default 2).
     #[arg(long, value_name = "WEIGHT")]
     pub free_space_weight: Option<f64>,
+    /// On scans, estimate from the grids alone, without the free space the
+    /// beams saw through (as the 16 KiB Cortex-M0 firmware does).
+    #[arg(long)]
+    pub no_free_space: bool,
 
     /// Tuning (verification): `low_overlap` when the chosen pose puts less
     /// than this share of the second view within one cell of the first
@@ -193,6 +197,7 @@ impl EstimatorArgs {
         }
         engine.set_thresholds(t);
         engine.set_verification(!self.no_verify);
+        engine.set_free_space(!self.no_free_space);
         Ok(engine)
     }
 }
