@@ -18,8 +18,9 @@
 //! | 46 | 1 | CRC-8 (polynomial 0x4D, initial 0, not reflected) of bytes 0–45 |
 //!
 //! All fields little-endian. Point `i` lies at `start + i·(end − start)/11`
-//! (the difference taken modulo 360 °), rounded down to 1/6400 °. Angles
-//! grow clockwise; 0 ° is the sensor's front (the side opposite its cable).
+//! (the difference taken modulo 360 °, at most [`MAX_SPAN`]), rounded down
+//! to 1/6400 °. Angles grow clockwise seen from above; 0 ° is the front
+//! of the manual's coordinate-system figure.
 
 use crate::bytes::{u16_at, u8_at};
 use crate::parser::{Frame, Layout, Reject};
@@ -33,6 +34,11 @@ pub const POINTS: usize = 12;
 pub const HEADER: u8 = 0x54;
 /// Second byte: packet type 1, 12 points.
 pub const VER_LEN: u8 = 0x2C;
+
+/// Largest angle from a packet's first point to its last, 0.01 ° (40 °:
+/// 12 points at 4 500 points/s span 14.4 ° at 15 turns/s). A packet with a
+/// good CRC but a wider span is dropped as out of range.
+pub const MAX_SPAN: u32 = 4_000;
 
 /// The CRC-8 table (polynomial 0x4D), built at compile time.
 const CRC_TABLE: [u8; 256] = crc_table();
@@ -84,7 +90,8 @@ impl Layout for Ld06Layout {
         if crc8(packet.get(..PACKET_LEN - 1).unwrap_or(&[])) != u8_at(packet, PACKET_LEN - 1) {
             return Frame::Reject(Reject::Checksum);
         }
-        if u16_at(packet, 4) >= 36_000 || u16_at(packet, 42) >= 36_000 {
+        let (start, end) = (u32::from(u16_at(packet, 4)), u32::from(u16_at(packet, 42)));
+        if start >= 36_000 || end >= 36_000 || (end + 36_000 - start) % 36_000 > MAX_SPAN {
             return Frame::Reject(Reject::Range);
         }
         Frame::Packet(PACKET_LEN)

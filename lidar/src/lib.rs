@@ -62,7 +62,6 @@
 
 mod bytes;
 mod counters;
-mod feed;
 mod lidar;
 mod parser;
 mod point;
@@ -74,22 +73,29 @@ pub mod ydlidar;
 
 #[cfg(feature = "async")]
 pub mod asynch;
+#[cfg(any(feature = "io", feature = "async"))]
+mod feed;
 #[cfg(feature = "io")]
 pub mod io;
 
 pub use counters::Counters;
+#[cfg(any(feature = "io", feature = "async"))]
 pub use feed::CHUNK;
 pub use lidar::Lidar;
 pub use parser::{Frame, Layout, Packet, Parser, Reject};
 pub use point::{Direction, Point, UNITS_PER_DEGREE, UNITS_PER_TURN};
 pub use revolution::{Assembler, AssemblerCounters, Revolution, RevolutionStats};
 
-/// LDRobot LD06 / LD19 / STL-19P parser ([`ld06`]). RAM: 72 bytes.
-pub type Ld06 = Parser<ld06::Ld06Layout, { ld06::PACKET_LEN }>;
-/// Slamtec RPLIDAR standard-scan parser ([`rplidar`]). RAM: 44 bytes.
-pub type Rplidar = Parser<rplidar::RplidarLayout, { rplidar::NODE_LEN * rplidar::LOCK_NODES }>;
-/// YDLIDAR X2 / X4 parser ([`ydlidar`]). RAM: 548 bytes.
-pub type Ydlidar = Parser<ydlidar::YdlidarLayout, { ydlidar::MAX_PACKET_LEN }>;
+// The buffers hold one byte more than the longest packet: a [`Lidar`] keeps
+// the packet it is reading while the next byte comes in.
+
+/// LDRobot LD06 / LD19 / STL-19P parser ([`ld06`]).
+pub type Ld06 = Parser<ld06::Ld06Layout, { ld06::PACKET_LEN + 1 }>;
+/// Slamtec RPLIDAR standard-scan parser ([`rplidar`]).
+pub type Rplidar =
+    Parser<rplidar::RplidarLayout, { rplidar::NODE_LEN * rplidar::LOCK_NODES + 1 }>;
+/// YDLIDAR X2 / X4 parser ([`ydlidar`]).
+pub type Ydlidar = Parser<ydlidar::YdlidarLayout, { ydlidar::MAX_PACKET_LEN + 1 }>;
 
 impl<L: Layout, const CAP: usize> Parser<L, CAP> {
     /// The buffer size of this parser type, for [`Lidar`]'s `CAP`.

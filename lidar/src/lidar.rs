@@ -20,6 +20,12 @@ impl<L: Layout, const CAP: usize, const N: usize> Lidar<L, CAP, N> {
     /// `parser`'s packets into revolutions with returns at or beyond
     /// `max_range` metres treated as "no return".
     pub const fn new(parser: Parser<L, CAP>, max_range: f32) -> Self {
+        const {
+            assert!(
+                CAP > L::MAX_LEN,
+                "the parser's buffer must hold one byte more than the longest packet"
+            )
+        };
         Self {
             parser,
             assembler: Assembler::new(L::DIRECTION, max_range),

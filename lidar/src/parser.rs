@@ -151,6 +151,12 @@ impl<L: Layout, const CAP: usize> Parser<L, CAP> {
         &self.counters
     }
 
+    /// Bytes held in the buffer: a candidate packet not yet complete (and
+    /// the packet handed out last, until the next call).
+    pub const fn buffered(&self) -> usize {
+        self.len
+    }
+
     /// The protocol's layout (its settings).
     pub const fn layout(&self) -> &L {
         &self.layout
@@ -161,15 +167,25 @@ impl<L: Layout, const CAP: usize> Parser<L, CAP> {
     /// candidate): call [`poll`](Self::poll) until it returns `None` to get
     /// them all, and at the end of a stream.
     pub fn push(&mut self, byte: u8) -> Option<Packet<'_, L>> {
+        self.release();
         self.append(byte);
         self.poll()
     }
 
+    /// Drops the packet handed out last.
+    fn release(&mut self) {
+        let pending = self.pending;
+        self.pending = 0;
+        self.discard(pending);
+    }
+
     /// Appends `byte` without looking for packets; a packet handed out
-    /// before stays readable through [`current`](Self::current). A full
-    /// buffer refuses the byte and counts it in
-    /// [`Counters::overflow_bytes`] (cannot happen when every `append` is
-    /// followed by `poll` until `None`).
+    /// before stays readable through [`current`](Self::current) (so the
+    /// buffer needs one byte more than the longest packet: `CAP >
+    /// L::MAX_LEN`, as [`Lidar`](crate::Lidar) checks). A full buffer
+    /// refuses the byte and counts it in [`Counters::overflow_bytes`]
+    /// (cannot happen when each `append` is followed by `poll` until `None`,
+    /// or by at most one `current`).
     pub fn append(&mut self, byte: u8) {
         match self.buf.get_mut(self.len) {
             Some(slot) => {
@@ -183,9 +199,7 @@ impl<L: Layout, const CAP: usize> Parser<L, CAP> {
     /// Drops the packet handed out last and returns the next complete one
     /// among the buffered bytes, if any.
     pub fn poll(&mut self) -> Option<Packet<'_, L>> {
-        let pending = self.pending;
-        self.pending = 0;
-        self.discard(pending);
+        self.release();
         loop {
             let data = self.buf.get(..self.len)?;
             if data.is_empty() {

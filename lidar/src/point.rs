@@ -23,7 +23,8 @@ pub enum Direction {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Point {
-    /// Angle from the sensor's zero (its front, marked on the housing), in
+    /// Angle from the sensor's zero (the front of its manual's coordinate
+    /// figure), in
     /// [`UNITS_PER_DEGREE`] units, in `0..UNITS_PER_TURN`, growing in the
     /// sensor's own [`Direction`] (clockwise for every sensor here).
     pub angle: u32,

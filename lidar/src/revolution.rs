@@ -20,15 +20,23 @@
 //!
 //! # Revolutions
 //!
-//! A revolution ends when a point's angle (in the sensor's direction) is
-//! smaller than the previous point's by more than half a turn: the angles
-//! wrapped through 360°. The points before the first wrap are a partial
+//! A revolution ends when the angles (in the sensor's direction) move
+//! forward through 360° = 0°: a point lies ahead of the foremost angle so
+//! far (by less than 315°) but its angle is smaller. A point up to
+//! [`BACKWARD`] (45°) behind the foremost one is jitter (e.g. YDLIDAR's
+//! triangulation correction near 0°): it goes into its bin and starts
+//! nothing. Consequence: a gap of more than 315° in the data merges two
+//! turns into one revolution (counted in [`RevolutionStats::merged`]). The points before the first wrap are a partial
 //! revolution (the stream started mid-turn): they are dropped and counted
 //! ([`AssemblerCounters::leading_points`]). The last revolution of a
 //! stream is complete only when the next one starts.
 
 use crate::counters::bump;
 use crate::point::{Direction, Point, UNITS_PER_TURN};
+
+/// A point at most this far behind the foremost angle so far (in the
+/// sensor's direction) is jitter, not a new revolution: 45 °.
+pub const BACKWARD: u32 = UNITS_PER_TURN / 8;
 
 /// Counts of one revolution.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -171,10 +179,23 @@ impl<const N: usize> Assembler<N> {
                 self.insert(p);
             }
         }
-        let wrapped = self
-            .last_angle
-            .is_some_and(|last| last > point.angle && last - point.angle > UNITS_PER_TURN / 2);
-        self.last_angle = Some(point.angle);
+        let wrapped = match self.last_angle {
+            None => {
+                self.last_angle = Some(point.angle % UNITS_PER_TURN);
+                false
+            }
+            Some(last) => {
+                let angle = point.angle % UNITS_PER_TURN;
+                let forward = (angle + UNITS_PER_TURN - last) % UNITS_PER_TURN;
+                if forward >= UNITS_PER_TURN - BACKWARD {
+                    // A little behind the front (angle jitter): no wrap.
+                    false
+                } else {
+                    self.last_angle = Some(angle);
+                    angle < last
+                }
+            }
+        };
         if wrapped {
             if self.started {
                 self.complete = true;

@@ -30,9 +30,13 @@
 //! After any rejection (and at the start) it hands a node on only when it
 //! and the next [`LOCK_NODES`]` − 1` nodes are all well-formed and each
 //! continues the previous one's angle by at most [`MAX_STEP_Q6`]; once
-//! locked, each node must continue the last one handed on. A flipped bit
-//! in a distance or the quality cannot be detected by any receiver: the
-//! protocol has nothing to check it against.
+//! locked, a node must continue the last one handed on and the next node
+//! must continue it (so each node waits for the next: a node whose last
+//! byte was lost is caught by its misaligned successor). A node rejected
+//! while locked counts once in `bad_framing` (or `out_of_range`), the bytes
+//! skipped while searching count in `skipped_bytes`. A flipped bit in a
+//! distance or the quality cannot be detected by any receiver: the protocol
+//! has nothing to check it against.
 
 use crate::bytes::{u16_at, u8_at};
 use crate::parser::{Frame, Layout, Reject};
@@ -100,37 +104,37 @@ impl Layout for RplidarLayout {
                 Some(_) => {}
             }
         }
-        let first = match node(bytes) {
-            None => return Frame::NeedMore,
-            Some(n) => n,
+        let Some(first) = node(bytes) else {
+            return Frame::NeedMore;
         };
-        if let Some(last) = self.last_q6 {
-            // Locked: this node must continue the last one handed on.
-            return match first {
-                Ok(angle) if continues(last, angle) => {
-                    self.last_q6 = Some(angle);
-                    Frame::Packet(NODE_LEN)
-                }
-                Ok(_) => {
-                    self.last_q6 = None;
-                    Frame::Reject(Reject::Framing)
-                }
-                Err(why) => {
-                    self.last_q6 = None;
-                    Frame::Reject(why)
-                }
-            };
-        }
-        // Searching: the node and the next LOCK_NODES − 1 must agree.
-        let Ok(angle) = first else {
-            return Frame::Noise;
+        let locked = self.last_q6;
+        // Locked: this node must continue the last one handed on and the
+        // next must continue it; searching: LOCK_NODES nodes must agree.
+        let (need, fail) = match locked {
+            Some(_) => (2, Frame::Reject(Reject::Framing)),
+            None => (LOCK_NODES, Frame::Noise),
+        };
+        let angle = match (first, locked) {
+            (Ok(angle), Some(last)) if !continues(last, angle) => {
+                self.last_q6 = None;
+                return fail;
+            }
+            (Ok(angle), _) => angle,
+            (Err(why), Some(_)) => {
+                self.last_q6 = None;
+                return Frame::Reject(why);
+            }
+            (Err(_), None) => return Frame::Noise,
         };
         let mut previous = angle;
-        for k in 1..LOCK_NODES {
+        for k in 1..need {
             match node(bytes.get(k * NODE_LEN..).unwrap_or(&[])) {
                 None => return Frame::NeedMore,
                 Some(Ok(next)) if continues(previous, next) => previous = next,
-                Some(_) => return Frame::Noise,
+                Some(_) => {
+                    self.last_q6 = None;
+                    return fail;
+                }
             }
         }
         self.last_q6 = Some(angle);

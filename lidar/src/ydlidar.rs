@@ -23,7 +23,8 @@
 //! 1/6400 °, plus the triangulation correction of the X2/X4 manuals,
 //! `atan(21.8·(155.3 − d)/(155.3·d))` with `d` in mm (0 when `d` = 0),
 //! computed in integers (CORDIC) to within 2/6400 °. Angles grow
-//! clockwise; 0 ° is the sensor's front (the motor side).
+//! clockwise seen from above; 0 ° is the front of the manual's coordinate
+//! figure.
 
 use crate::bytes::{u16_at, u8_at};
 use crate::parser::{Frame, Layout, Reject};
