@@ -92,8 +92,7 @@ pub use revolution::{Assembler, AssemblerCounters, Revolution, RevolutionStats};
 /// LDRobot LD06 / LD19 / STL-19P parser ([`ld06`]).
 pub type Ld06 = Parser<ld06::Ld06Layout, { ld06::PACKET_LEN + 1 }>;
 /// Slamtec RPLIDAR standard-scan parser ([`rplidar`]).
-pub type Rplidar =
-    Parser<rplidar::RplidarLayout, { rplidar::NODE_LEN * rplidar::LOCK_NODES + 1 }>;
+pub type Rplidar = Parser<rplidar::RplidarLayout, { rplidar::NODE_LEN * rplidar::LOCK_NODES + 1 }>;
 /// YDLIDAR X2 / X4 parser ([`ydlidar`]).
 pub type Ydlidar = Parser<ydlidar::YdlidarLayout, { ydlidar::MAX_PACKET_LEN + 1 }>;
 

@@ -26,17 +26,22 @@
 //!
 //! Nodes carry **no checksum**: the only framing is `S ≠ !S` and `C = 1`,
 //! which a random 5-byte window passes one time in four. This parser adds
-//! what the stream itself guarantees: angles grow clockwise by small steps.
+//! what the stream itself guarantees: angles grow clockwise by small steps
+//! (at least 1/64 °: a misaligned window over nodes without a return reads
+//! a nearly constant "angle"), and two consecutive nodes never both start
+//! a revolution (a window misaligned by one byte reads `C` as `S`).
 //! After any rejection (and at the start) it hands a node on only when it
 //! and the next [`LOCK_NODES`]` − 1` nodes are all well-formed and each
 //! continues the previous one's angle by at most [`MAX_STEP_Q6`]; once
-//! locked, a node must continue the last one handed on and the next node
-//! must continue it (so each node waits for the next: a node whose last
-//! byte was lost is caught by its misaligned successor). A node rejected
-//! while locked counts once in `bad_framing` (or `out_of_range`), the bytes
-//! skipped while searching count in `skipped_bytes`. A flipped bit in a
-//! distance or the quality cannot be detected by any receiver: the protocol
-//! has nothing to check it against.
+//! locked, a node must continue the last one handed on and the next
+//! [`LOCKED_NODES`]` − 1` must continue it (so each node waits for the next
+//! two: a node whose last bytes were lost is caught by its misaligned
+//! successors). A node rejected while locked counts once in `bad_framing`
+//! (or `out_of_range`), the bytes skipped while searching count in
+//! `skipped_bytes`. One damaged node thus costs up to the two nodes before
+//! it as well. A flipped bit in a distance or the quality (or a low bit of
+//! an angle) cannot be detected by any receiver: the protocol has nothing
+//! to check it against.
 
 use crate::bytes::{u16_at, u8_at};
 use crate::parser::{Frame, Layout, Reject};
@@ -48,8 +53,13 @@ pub const NODE_LEN: usize = 5;
 pub const DESCRIPTOR_LEN: usize = 7;
 /// The response descriptor of the `SCAN` (0x20) and `FORCE_SCAN` requests.
 pub const SCAN_DESCRIPTOR: [u8; DESCRIPTOR_LEN] = [0xA5, 0x5A, 0x05, 0x00, 0x00, 0x40, 0x81];
-/// Nodes that must agree before the first is handed on after a rejection.
-pub const LOCK_NODES: usize = 3;
+/// Nodes that must agree before the first is handed on after a rejection
+/// (or at the start): a window of random bytes passes with a probability
+/// of about 10⁻⁸.
+pub const LOCK_NODES: usize = 4;
+/// Nodes that must agree, the first continuing the last node handed on,
+/// once locked: each node waits for the next two.
+pub const LOCKED_NODES: usize = 3;
 /// Largest angle step between consecutive nodes, 1/64 ° (8 °: an A1 at
 /// 2 000 samples/s and 10 Hz steps 1.8 °, so several lost nodes still pass).
 pub const MAX_STEP_Q6: u32 = 8 * 64;
@@ -57,15 +67,24 @@ pub const MAX_STEP_Q6: u32 = 8 * 64;
 const TURN_Q6: u32 = 360 * 64;
 
 /// The RPLIDAR standard-scan protocol ([`Rplidar`](crate::Rplidar) is its
-/// parser). Its state is the angle of the last node handed on (the lock).
+/// parser). Its state is the last node handed on (the lock).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RplidarLayout {
-    last_q6: Option<u32>,
+    last: Option<Node>,
 }
 
-/// The node at the start of `bytes`: `Ok(angle_q6)` if well-formed,
-/// `Err(why)` if not, `None` if incomplete.
-fn node(bytes: &[u8]) -> Option<Result<u32, Reject>> {
+/// What the framing looks at in a node.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Node {
+    /// Angle, 1/64 °.
+    angle_q6: u32,
+    /// The `S` bit.
+    start: bool,
+}
+
+/// The node at the start of `bytes`: `Ok(node)` if well-formed, `Err(why)`
+/// if not, `None` if incomplete.
+fn node(bytes: &[u8]) -> Option<Result<Node, Reject>> {
     let raw = bytes.get(..NODE_LEN)?;
     let b0 = u8_at(raw, 0);
     let s = b0 & 1;
@@ -78,13 +97,18 @@ fn node(bytes: &[u8]) -> Option<Result<u32, Reject>> {
     Some(if angle >= TURN_Q6 {
         Err(Reject::Range)
     } else {
-        Ok(angle)
+        Ok(Node {
+            angle_q6: angle,
+            start: s == 1,
+        })
     })
 }
 
-/// Whether `next` continues `previous` (clockwise, at most [`MAX_STEP_Q6`]).
-fn continues(previous: u32, next: u32) -> bool {
-    (next + TURN_Q6 - previous) % TURN_Q6 <= MAX_STEP_Q6
+/// Whether `next` can follow `previous`: its angle ahead (clockwise) by
+/// 1/64 ° to [`MAX_STEP_Q6`], and not both starting a revolution.
+fn continues(previous: Node, next: Node) -> bool {
+    let step = (next.angle_q6 + TURN_Q6 - previous.angle_q6) % TURN_Q6;
+    (1..=MAX_STEP_Q6).contains(&step) && !(previous.start && next.start)
 }
 
 impl Layout for RplidarLayout {
@@ -97,7 +121,7 @@ impl Layout for RplidarLayout {
                 None => return Frame::NeedMore,
                 Some(0x5A) if bytes.len() < DESCRIPTOR_LEN => return Frame::NeedMore,
                 Some(0x5A) => {
-                    self.last_q6 = None;
+                    self.last = None;
                     return Frame::Descriptor(DESCRIPTOR_LEN);
                 }
                 // 0xA5 is also a well-formed first byte (S = 1, quality 41).
@@ -107,37 +131,37 @@ impl Layout for RplidarLayout {
         let Some(first) = node(bytes) else {
             return Frame::NeedMore;
         };
-        let locked = self.last_q6;
+        let locked = self.last;
         // Locked: this node must continue the last one handed on and the
         // next must continue it; searching: LOCK_NODES nodes must agree.
         let (need, fail) = match locked {
-            Some(_) => (2, Frame::Reject(Reject::Framing)),
+            Some(_) => (LOCKED_NODES, Frame::Reject(Reject::Framing)),
             None => (LOCK_NODES, Frame::Noise),
         };
-        let angle = match (first, locked) {
-            (Ok(angle), Some(last)) if !continues(last, angle) => {
-                self.last_q6 = None;
+        let first = match (first, locked) {
+            (Ok(first), Some(last)) if !continues(last, first) => {
+                self.last = None;
                 return fail;
             }
-            (Ok(angle), _) => angle,
+            (Ok(first), _) => first,
             (Err(why), Some(_)) => {
-                self.last_q6 = None;
+                self.last = None;
                 return Frame::Reject(why);
             }
             (Err(_), None) => return Frame::Noise,
         };
-        let mut previous = angle;
+        let mut previous = first;
         for k in 1..need {
             match node(bytes.get(k * NODE_LEN..).unwrap_or(&[])) {
                 None => return Frame::NeedMore,
                 Some(Ok(next)) if continues(previous, next) => previous = next,
                 Some(_) => {
-                    self.last_q6 = None;
+                    self.last = None;
                     return fail;
                 }
             }
         }
-        self.last_q6 = Some(angle);
+        self.last = Some(first);
         Frame::Packet(NODE_LEN)
     }
 

@@ -27,7 +27,13 @@ impl Fixture {
             .as_array()
             .unwrap()
             .iter()
-            .map(|t| t.as_array().unwrap().iter().map(|v| v.as_u64().unwrap()).collect())
+            .map(|t| {
+                t.as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|v| v.as_u64().unwrap())
+                    .collect()
+            })
             .collect()
     }
 
@@ -52,11 +58,11 @@ pub struct Decoded {
     pub points: Vec<Point>,
 }
 
+/// The packets of a stream, the counters, and the bytes left buffered.
+pub type Decoding = (Vec<Decoded>, Counters, usize);
+
 /// Every packet of `stream`, the counters, and the bytes left buffered.
-pub fn decode<L: Layout, const CAP: usize>(
-    mut parser: Parser<L, CAP>,
-    stream: &[u8],
-) -> (Vec<Decoded>, Counters, usize) {
+pub fn decode<L: Layout, const CAP: usize>(mut parser: Parser<L, CAP>, stream: &[u8]) -> Decoding {
     let mut out = Vec::new();
     let take = |p: hough_lidar::Packet<'_, L>| Decoded {
         bytes: p.bytes().to_vec(),
@@ -76,7 +82,13 @@ pub fn decode<L: Layout, const CAP: usize>(
 
 /// Every byte is accounted for: in a packet, a descriptor, the first byte
 /// of a rejected candidate, skipped, or still buffered.
-pub fn assert_bytes_accounted(total: usize, packets: &[Decoded], c: &Counters, buffered: usize, descriptor_len: usize) {
+pub fn assert_bytes_accounted(
+    total: usize,
+    packets: &[Decoded],
+    c: &Counters,
+    buffered: usize,
+    descriptor_len: usize,
+) {
     let in_packets: usize = packets.iter().map(|p| p.bytes.len()).sum();
     assert_eq!(
         in_packets
