@@ -19,8 +19,8 @@ can carry become 0.
 
 Each stream is: a lead-in (the second half of a turn with no return: the
 capture starts mid-turn), the scans' turns, and one packet of a further
-turn that closes the last one (two nodes for RPLIDAR). RPLIDAR's starts with the SCAN response
-descriptor `A5 5A 05 00 00 40 81`.
+turn that closes the last one (three nodes for RPLIDAR). RPLIDAR's starts
+with the SCAN response descriptor `A5 5A 05 00 00 40 81`.
 
 Files, per protocol P in ld06, rplidar, ydlidar:
 
@@ -126,9 +126,9 @@ def rplidar_stream(turns):
     out = bytearray([0xA5, 0x5A, 0x05, 0x00, 0x00, 0x40, 0x81])
     for k in range(POINTS // 2, POINTS):
         out += rplidar_node(k, 0)
-    # Two nodes of a further turn: the first closes the last turn, the
-    # second lets the receiver check the first (nodes carry no checksum).
-    for turn in turns + [[0, 0]]:
+    # Three nodes of a further turn: the first closes the last turn, the
+    # next two let the receiver check it (nodes carry no checksum).
+    for turn in turns + [[0, 0, 0]]:
         for k, d in enumerate(turn):
             out += rplidar_node(k, d)
     return bytes(out)

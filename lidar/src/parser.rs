@@ -227,7 +227,8 @@ impl<L: Layout, const CAP: usize> Parser<L, CAP> {
                     self.discard(n.max(1));
                 }
                 Frame::Packet(n) => {
-                    let n = n.clamp(1, self.len);
+                    // `data` is not empty: 1 ≤ len.
+                    let n = n.min(self.len).max(1);
                     self.pending = n;
                     bump(&mut self.counters.packets, 1);
                     let packet = self.current()?;
