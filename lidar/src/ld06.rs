@@ -24,7 +24,7 @@
 
 use crate::bytes::{u16_at, u8_at};
 use crate::parser::{Frame, Layout, Reject};
-use crate::point::{wrap, Direction, Point};
+use crate::point::{Direction, Point, UNITS_PER_TURN};
 
 /// Bytes per packet.
 pub const PACKET_LEN: usize = 47;
@@ -105,11 +105,18 @@ impl Layout for Ld06Layout {
         if i >= POINTS {
             return None;
         }
-        let start = i64::from(u16_at(packet, 4));
-        let end = i64::from(u16_at(packet, 42));
-        let span = (end - start).rem_euclid(36_000);
+        // Checked by `classify`: start, end < 36 000 and the span at most
+        // MAX_SPAN, so everything fits in `u32` (division by a constant).
+        let start = u32::from(u16_at(packet, 4)) % 36_000;
+        let end = u32::from(u16_at(packet, 42)) % 36_000;
+        let span = (end + 36_000 - start) % 36_000;
         // 0.01 ° = 64 units.
-        let angle = wrap((start * 64) + (span * 64 * i as i64) / (POINTS as i64 - 1));
+        let angle = start * 64 + (span * 64 * i as u32) / (POINTS as u32 - 1);
+        let angle = if angle >= UNITS_PER_TURN {
+            angle - UNITS_PER_TURN
+        } else {
+            angle
+        };
         let at = 6 + 3 * i;
         Some(Point {
             angle,

@@ -263,6 +263,9 @@ impl<L: Layout, const CAP: usize> Parser<L, CAP> {
     /// Removes the first `n` buffered bytes.
     fn discard(&mut self, n: usize) {
         let n = n.min(self.len);
+        if n == 0 {
+            return;
+        }
         for i in n..self.len {
             if let Some(&b) = self.buf.get(i) {
                 if let Some(slot) = self.buf.get_mut(i - n) {

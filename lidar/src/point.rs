@@ -48,7 +48,18 @@ impl Point {
     }
 }
 
-/// `angle` (any number of units) wrapped into `0..UNITS_PER_TURN`.
+/// `angle` (any number of units) wrapped into `0..UNITS_PER_TURN`; within a
+/// turn of that range (the usual case) without a 64-bit division.
 pub(crate) const fn wrap(angle: i64) -> u32 {
-    angle.rem_euclid(UNITS_PER_TURN as i64) as u32
+    let turn = UNITS_PER_TURN as i64;
+    let wrapped = if angle >= 0 && angle < turn {
+        angle
+    } else if angle >= -turn && angle < 0 {
+        angle + turn
+    } else if angle >= turn && angle < 2 * turn {
+        angle - turn
+    } else {
+        angle.rem_euclid(turn)
+    };
+    wrapped as u32
 }

@@ -242,14 +242,22 @@ impl<const N: usize> Assembler<N> {
 
     /// The bin of a point: nearest to its counter-clockwise angle.
     fn bin(&self, angle: u32) -> usize {
-        let turn = u64::from(UNITS_PER_TURN);
-        let angle = u64::from(angle) % turn;
+        let turn = UNITS_PER_TURN;
+        let angle = angle % turn;
         let ccw = match self.direction {
             Direction::Clockwise => (turn - angle) % turn,
             Direction::CounterClockwise => angle,
         };
-        let n = N as u64;
-        ((ccw * n + turn / 2) / turn % n) as usize
+        // round(ccw·N / turn) with turn = 2¹¹ · 1125: ⌊⌊x / 2¹¹⌋ / 1125⌋ =
+        // ⌊x / turn⌋, and x / 2¹¹ < 2²⁷ fits a `u32` (N ≤ 2¹⁶).
+        const { assert!(UNITS_PER_TURN == 2048 * 1125) };
+        let x = u64::from(ccw) * N as u64 + u64::from(turn / 2);
+        let bin = ((x >> 11) as u32 / 1125) as usize;
+        if bin >= N {
+            bin - N
+        } else {
+            bin
+        }
     }
 
     fn insert(&mut self, point: Point) {

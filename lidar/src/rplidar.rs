@@ -128,15 +128,20 @@ impl Layout for RplidarLayout {
                 Some(_) => {}
             }
         }
-        let Some(first) = node(bytes) else {
-            return Frame::NeedMore;
-        };
         let locked = self.last;
         // Locked: this node must continue the last one handed on and the
         // next must continue it; searching: LOCK_NODES nodes must agree.
         let (need, fail) = match locked {
             Some(_) => (LOCKED_NODES, Frame::Reject(Reject::Framing)),
             None => (LOCK_NODES, Frame::Noise),
+        };
+        // The verdict needs every node of the window: wait for them first
+        // (the same verdict, without re-checking at each byte).
+        if bytes.len() < need * NODE_LEN {
+            return Frame::NeedMore;
+        }
+        let Some(first) = node(bytes) else {
+            return Frame::NeedMore;
         };
         let first = match (first, locked) {
             (Ok(first), Some(last)) if !continues(last, first) => {

@@ -123,12 +123,15 @@ impl Layout for YdlidarLayout {
         if i >= n {
             return None;
         }
-        let first = i64::from(u16_at(packet, 4) >> 1);
-        let last = i64::from(u16_at(packet, 6) >> 1);
-        let span = (last - first).rem_euclid(i64::from(TURN_Q6));
+        // Angles below 360 ° (checked by `classify`; reduced again here), so
+        // `span · 100 · i` < 23 040 · 100 · 255 fits in `u32`.
+        let turn = u32::from(TURN_Q6);
+        let first = u32::from(u16_at(packet, 4) >> 1) % turn;
+        let last = u32::from(u16_at(packet, 6) >> 1) % turn;
+        let span = (last + turn - first) % turn;
         // 1/64 ° = 100 units.
         let step = if n > 1 {
-            span * 100 * i as i64 / (n as i64 - 1)
+            span * 100 * i as u32 / (n as u32 - 1)
         } else {
             0
         };
@@ -139,7 +142,7 @@ impl Layout for YdlidarLayout {
             0
         };
         Some(Point {
-            angle: wrap(first * 100 + step + correction),
+            angle: wrap(i64::from(first * 100 + step) + correction),
             range_q2: u32::from(sample),
             quality: 0,
         })
