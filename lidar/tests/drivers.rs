@@ -218,3 +218,43 @@ fn revolutions_estimate_like_the_original_scans() {
         originals.len() - 1
     );
 }
+
+/// The README's "On a robot" firmware loop, verbatim but for the UART (the
+/// LD06 capture) and the loop's end.
+#[test]
+fn on_a_robot() {
+    let uart = &Fixture::load("ld06").bytes[..];
+    let mut confident = 0;
+    // --- README "On a robot" begins
+    use hough_heading::{estimator, grid, Mode, Raster, SensorOffset, Status};
+    use hough_lidar::{io::Driver, Ld06, Lidar};
+
+    type Grid = grid!(128, 128);
+    type Estimator = estimator!(128, 128, 360);
+
+    // LD06 on the UART (230400 8N1), 720 beams a turn, returns beyond 12 m ignored.
+    let mut lidar = Driver::new(uart, Lidar::<_, { Ld06::CAPACITY }, 720>::new(Ld06::new(), 12.0));
+    // Mounted 10 cm ahead of the wheel axle, its zero to the robot's front.
+    let mount = SensorOffset { x: 0.10, y: 0.0, theta: 0.0 };
+    let raster = Raster::with_radius(6.0, 128).unwrap().connect(0.3); // ±6 m window
+    let mut estimator = Estimator::new(Mode::Improved);
+    let mut previous = None;
+    let mut heading_deg = 0.0f32;
+    while let Ok(Some(turn)) = lidar.next_revolution() {
+        let mut grid = Grid::new();
+        raster.rasterize(&turn.scan(mount), &mut grid);
+        if let Some(reference) = &previous {
+            let estimate = estimator.estimate(reference, &grid);
+            if estimate.status == Status::Confident {
+                heading_deg -= estimate.alpha.to_degrees(); // the scene turns the other way
+                confident += 1;
+            }
+        }
+        previous = Some(estimator.reference(&grid));
+    }
+    let dropped = lidar.lidar().parser().counters().dropped_packets(); // log it
+    // --- README "On a robot" ends
+    assert_eq!(dropped, 0);
+    assert!(confident >= 15, "{confident} confident of 19");
+    assert!(heading_deg.is_finite());
+}
