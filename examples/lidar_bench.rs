@@ -18,12 +18,17 @@
 mod support;
 
 #[cfg(target_os = "none")]
+#[path = "support/markers.rs"]
+mod markers;
+
+#[cfg(target_os = "none")]
 mod firmware {
     use core::hint::black_box;
     use core::mem::size_of;
 
     use hough_lidar::{Assembler, Layout, Ld06, Lidar, Parser, Rplidar, Ydlidar};
 
+    use crate::markers::{hh_bench_start, hh_bench_stop};
     use crate::support;
 
     static LD06: &[u8] = include_bytes!("../lidar/tests/data/ld06.bin");
@@ -31,18 +36,6 @@ mod firmware {
     static YDLIDAR: &[u8] = include_bytes!("../lidar/tests/data/ydlidar.bin");
     /// Beams a revolution.
     const BINS: usize = 720;
-
-    /// Start marker of a measured region.
-    #[inline(never)]
-    pub fn hh_bench_start() {
-        black_box(1u32);
-    }
-
-    /// Stop marker of a measured region.
-    #[inline(never)]
-    pub fn hh_bench_stop() {
-        black_box(2u32);
-    }
 
     /// The two regions of one capture; `true` when nothing was dropped.
     #[inline(never)]

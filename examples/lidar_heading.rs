@@ -30,12 +30,16 @@ mod support;
 mod pipeline;
 
 #[cfg(target_os = "none")]
+#[path = "support/markers.rs"]
+mod markers;
+
+#[cfg(target_os = "none")]
 mod firmware {
-    use core::hint::black_box;
 
     use semihosting::fs::File;
     use semihosting::io::Read;
 
+    use crate::markers::{hh_bench_start, hh_bench_stop};
     use crate::pipeline::{self, BINS, RECORD_LEN};
     use crate::support;
 
@@ -43,18 +47,6 @@ mod firmware {
     static HEADINGS: &[u8] = include_bytes!("../lidar/tests/data/ld06-headings.bin");
     /// Exit status when the capture cannot be read.
     const EXIT_BAD_INPUT: i32 = 2;
-
-    /// Start marker of a measured region (see `examples/bench.rs`).
-    #[inline(never)]
-    pub fn hh_bench_start() {
-        black_box(1u32);
-    }
-
-    /// Stop marker of a measured region.
-    #[inline(never)]
-    pub fn hh_bench_stop() {
-        black_box(2u32);
-    }
 
     #[cfg_attr(target_arch = "arm", cortex_m_rt::entry)]
     #[cfg_attr(target_arch = "riscv32", riscv_rt::entry)]

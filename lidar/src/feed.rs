@@ -1,5 +1,6 @@
-//! The part of the drivers that does not read: a small byte buffer drained
-//! into a [`Lidar`].
+//! Drivers over readers: a blocking one over [`embedded_io::Read`] (feature
+//! `io`) and an async one over [`embedded_io_async::Read`] (feature
+//! `async`, for embassy's UARTs and other async readers).
 
 use crate::lidar::Lidar;
 use crate::parser::Layout;
@@ -8,19 +9,27 @@ use crate::revolution::Revolution;
 /// Bytes read per call to the reader.
 pub const CHUNK: usize = 64;
 
-/// A [`Lidar`] and the bytes read but not yet given to it.
-#[derive(Clone, Debug)]
-pub(crate) struct Feed<L, const CAP: usize, const N: usize> {
-    pub(crate) lidar: Lidar<L, CAP, N>,
+/// Revolutions from a reader (a UART, a file): reads [`CHUNK`] bytes at a
+/// time into a buffer of its own and feeds them to a [`Lidar`].
+/// [`next_revolution`](Self::next_revolution) blocks on an
+/// `embedded_io::Read`, [`next_revolution_async`](Self::next_revolution_async)
+/// awaits an `embedded_io_async::Read`. RAM: the [`Lidar`] plus 80 bytes
+/// and the reader.
+#[derive(Debug)]
+pub struct Driver<R, L, const CAP: usize, const N: usize> {
+    reader: R,
+    lidar: Lidar<L, CAP, N>,
     buf: [u8; CHUNK],
     pos: usize,
     len: usize,
-    pub(crate) eof: bool,
+    eof: bool,
 }
 
-impl<L: Layout, const CAP: usize, const N: usize> Feed<L, CAP, N> {
-    pub(crate) const fn new(lidar: Lidar<L, CAP, N>) -> Self {
+impl<R, L: Layout, const CAP: usize, const N: usize> Driver<R, L, CAP, N> {
+    /// A driver reading `reader` into `lidar`.
+    pub const fn new(reader: R, lidar: Lidar<L, CAP, N>) -> Self {
         Self {
+            reader,
             lidar,
             buf: [0; CHUNK],
             pos: 0,
@@ -29,10 +38,20 @@ impl<L: Layout, const CAP: usize, const N: usize> Feed<L, CAP, N> {
         }
     }
 
+    /// The parser and assembler (their counters).
+    pub const fn lidar(&self) -> &Lidar<L, CAP, N> {
+        &self.lidar
+    }
+
+    /// The reader back.
+    pub fn into_reader(self) -> R {
+        self.reader
+    }
+
     /// Gives the buffered bytes to the lidar until a revolution completes
-    /// (`true`) or the buffer is empty (`false`: read more, or at the end
-    /// of the stream, `None` from [`finish`](Self::finish)).
-    pub(crate) fn drain(&mut self) -> bool {
+    /// (`true`) or the buffer is empty (`false`: read more; at the end of
+    /// the stream, the lidar's last packets).
+    fn drain(&mut self) -> bool {
         if self.eof {
             return self.lidar.step();
         }
@@ -45,19 +64,52 @@ impl<L: Layout, const CAP: usize, const N: usize> Feed<L, CAP, N> {
         false
     }
 
-    /// The buffer to read into; then [`filled`](Self::filled).
-    pub(crate) fn space(&mut self) -> &mut [u8] {
-        &mut self.buf
-    }
-
-    /// `n` bytes were read into [`space`](Self::space) (0: end of stream).
-    pub(crate) fn filled(&mut self, n: usize) {
+    /// `n` bytes were read into the buffer (0: end of stream).
+    fn filled(&mut self, n: usize) {
         self.pos = 0;
         self.len = n.min(CHUNK);
         self.eof = n == 0;
     }
+}
 
-    pub(crate) fn revolution(&self) -> Option<Revolution<'_, N>> {
-        self.lidar.revolution()
+#[cfg(feature = "io")]
+impl<R: embedded_io::Read, L: Layout, const CAP: usize, const N: usize> Driver<R, L, CAP, N> {
+    /// The next complete revolution, blocking; `Ok(None)` at the end of
+    /// the stream (a reader that returned 0 bytes).
+    ///
+    /// # Errors
+    /// The reader's error; the driver can be called again after it.
+    pub fn next_revolution(&mut self) -> Result<Option<Revolution<'_, N>>, R::Error> {
+        loop {
+            if self.drain() {
+                return Ok(self.lidar.revolution());
+            }
+            if self.eof {
+                return Ok(None);
+            }
+            let n = self.reader.read(&mut self.buf)?;
+            self.filled(n);
+        }
+    }
+}
+
+#[cfg(feature = "async")]
+impl<R: embedded_io_async::Read, L: Layout, const CAP: usize, const N: usize> Driver<R, L, CAP, N> {
+    /// The next complete revolution, awaiting the reader; `Ok(None)` at the
+    /// end of the stream.
+    ///
+    /// # Errors
+    /// The reader's error; the driver can be called again after it.
+    pub async fn next_revolution_async(&mut self) -> Result<Option<Revolution<'_, N>>, R::Error> {
+        loop {
+            if self.drain() {
+                return Ok(self.lidar.revolution());
+            }
+            if self.eof {
+                return Ok(None);
+            }
+            let n = self.reader.read(&mut self.buf).await?;
+            self.filled(n);
+        }
     }
 }

@@ -19,9 +19,10 @@
 //! 2. An [`Assembler`] bins the points of one turn into `N` beams (a const
 //!    generic), counter-clockwise from the sensor's zero, and hands out a
 //!    [`Revolution`] each time the angles wrap.
-//! 3. [`Lidar`] is the two together; [`io::Driver`] (feature `io`, over
-//!    `embedded_io::Read`) and [`asynch::Driver`] (feature `async`, over
-//!    `embedded_io_async::Read`) read a UART into it.
+//! 3. [`Lidar`] is the two together; a [`Driver`] reads a UART into it:
+//!    `next_revolution` over an `embedded_io::Read` (feature `io`),
+//!    `next_revolution_async` over an `embedded_io_async::Read` (feature
+//!    `async`).
 //!
 //! ```
 //! use hough_lidar::{Ld06, Lidar};
@@ -53,8 +54,8 @@
 //! # Features
 //!
 //! * `scan`: [`Revolution::scan`], the revolution as a `hough_heading::Scan`;
-//! * `io`: [`io::Driver`] over `embedded_io::Read`;
-//! * `async`: [`asynch::Driver`] over `embedded_io_async::Read`;
+//! * `io`: [`Driver::next_revolution`] over `embedded_io::Read`;
+//! * `async`: [`Driver::next_revolution_async`] over `embedded_io_async::Read`;
 //! * `defmt`: `defmt::Format` on the counters, points and statistics.
 
 #![no_std]
@@ -71,16 +72,12 @@ pub mod revolution;
 pub mod rplidar;
 pub mod ydlidar;
 
-#[cfg(feature = "async")]
-pub mod asynch;
 #[cfg(any(feature = "io", feature = "async"))]
 mod feed;
-#[cfg(feature = "io")]
-pub mod io;
 
 pub use counters::Counters;
 #[cfg(any(feature = "io", feature = "async"))]
-pub use feed::CHUNK;
+pub use feed::{Driver, CHUNK};
 pub use lidar::Lidar;
 pub use parser::{Frame, Layout, Packet, Parser, Reject};
 pub use point::{Direction, Point, UNITS_PER_DEGREE, UNITS_PER_TURN};

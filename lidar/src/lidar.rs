@@ -6,8 +6,8 @@ use crate::revolution::{Assembler, Revolution};
 /// Bytes → revolutions for protocol `L` (parser buffer `CAP` bytes,
 /// `N` bins a revolution). [`push`](Self::push) a byte at a time (from a
 /// UART interrupt, a DMA buffer, a capture file); when it returns `true`,
-/// [`revolution`](Self::revolution) is the completed turn. The drivers
-/// ([`crate::io`], [`crate::asynch`]) do this over a reader.
+/// [`revolution`](Self::revolution) is the completed turn. A
+/// [`Driver`](crate::Driver) does this over a reader.
 #[derive(Clone, Debug)]
 pub struct Lidar<L, const CAP: usize, const N: usize> {
     parser: Parser<L, CAP>,

@@ -100,7 +100,7 @@ fn blocking_driver_matches_feeding_by_hand_and_survives_errors() {
             calls: 0,
             fail_every,
         };
-        let mut driver = hough_lidar::io::Driver::new(reader, lidar());
+        let mut driver = hough_lidar::Driver::new(reader, lidar());
         let (mut got, mut errors) = (Vec::new(), 0);
         loop {
             match driver.next_revolution() {
@@ -125,10 +125,10 @@ fn async_driver_matches_feeding_by_hand() {
         calls: 0,
         fail_every: None,
     };
-    let mut driver = hough_lidar::asynch::Driver::new(reader, lidar());
+    let mut driver = hough_lidar::Driver::new(reader, lidar());
     let got = block_on(async {
         let mut got = Vec::new();
-        while let Some(r) = driver.next_revolution().await.unwrap() {
+        while let Some(r) = driver.next_revolution_async().await.unwrap() {
             got.push(r.ranges.to_vec());
         }
         got
@@ -227,15 +227,22 @@ fn on_a_robot() {
     let mut confident = 0;
     // --- README "On a robot" begins
     use hough_heading::{estimator, grid, Mode, Raster, SensorOffset, Status};
-    use hough_lidar::{io::Driver, Ld06, Lidar};
+    use hough_lidar::{Driver, Ld06, Lidar};
 
     type Grid = grid!(128, 128);
     type Estimator = estimator!(128, 128, 360);
 
     // LD06 on the UART (230400 8N1), 720 beams a turn, returns beyond 12 m ignored.
-    let mut lidar = Driver::new(uart, Lidar::<_, { Ld06::CAPACITY }, 720>::new(Ld06::new(), 12.0));
+    let mut lidar = Driver::new(
+        uart,
+        Lidar::<_, { Ld06::CAPACITY }, 720>::new(Ld06::new(), 12.0),
+    );
     // Mounted 10 cm ahead of the wheel axle, its zero to the robot's front.
-    let mount = SensorOffset { x: 0.10, y: 0.0, theta: 0.0 };
+    let mount = SensorOffset {
+        x: 0.10,
+        y: 0.0,
+        theta: 0.0,
+    };
     let raster = Raster::with_radius(6.0, 128).unwrap().connect(0.3); // ±6 m window
     let mut estimator = Estimator::new(Mode::Improved);
     let mut previous = None;
@@ -253,7 +260,7 @@ fn on_a_robot() {
         previous = Some(estimator.reference(&grid));
     }
     let dropped = lidar.lidar().parser().counters().dropped_packets(); // log it
-    // --- README "On a robot" ends
+                                                                       // --- README "On a robot" ends
     assert_eq!(dropped, 0);
     assert!(confident >= 15, "{confident} confident of 19");
     assert!(heading_deg.is_finite());

@@ -461,7 +461,7 @@ fn entry_lidar<L: Layout + Clone, const CAP: usize>(parser: Parser<L, CAP>, byte
     }
     opaque(assembler.max_range());
     assembler.restart();
-    let mut driver = hough_lidar::io::Driver::new(
+    let mut driver = hough_lidar::Driver::new(
         opaque(bytes),
         Lidar::<L, CAP, 360>::new(parser.clone(), 8.0),
     );
@@ -471,9 +471,9 @@ fn entry_lidar<L: Layout + Clone, const CAP: usize>(parser: Parser<L, CAP>, byte
     opaque(driver.lidar().parser().counters());
     opaque(driver.into_reader());
     let mut driver =
-        hough_lidar::asynch::Driver::new(opaque(bytes), Lidar::<L, CAP, 360>::new(parser, 8.0));
+        hough_lidar::Driver::new(opaque(bytes), Lidar::<L, CAP, 360>::new(parser, 8.0));
     let mut cx = Context::from_waker(Waker::noop());
-    let mut future = pin!(driver.next_revolution());
+    let mut future = pin!(driver.next_revolution_async());
     opaque(matches!(
         future.as_mut().poll(&mut cx),
         Poll::Ready(Ok(Some(_)))
