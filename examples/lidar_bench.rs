@@ -4,7 +4,7 @@
 //! `qemu-icount` plugin: `bash tools/lidar_budgets.sh` writes
 //! `docs/lidar/budgets.md`).
 //!
-//! The three captures of `lidar/tests/data/` are in flash; for each, two
+//! The four captures of `lidar/tests/data/` are in flash; for each, two
 //! regions between the markers `hh_bench_start` / `hh_bench_stop`: the
 //! parser over every byte (each point decoded), then a `Lidar` (parser and
 //! 720-beam assembler) over every byte. Region 0 is empty (the markers'
@@ -26,7 +26,7 @@ mod firmware {
     use core::hint::black_box;
     use core::mem::size_of;
 
-    use hough_lidar::{Assembler, Layout, Ld06, Lidar, Parser, Rplidar, Ydlidar};
+    use hough_lidar::{Assembler, Layout, Ld06, Lidar, Parser, Rplidar, Xv11, Ydlidar};
 
     use crate::markers::{hh_bench_start, hh_bench_stop};
     use crate::support;
@@ -34,6 +34,7 @@ mod firmware {
     static LD06: &[u8] = include_bytes!("../lidar/tests/data/ld06.bin");
     static RPLIDAR: &[u8] = include_bytes!("../lidar/tests/data/rplidar.bin");
     static YDLIDAR: &[u8] = include_bytes!("../lidar/tests/data/ydlidar.bin");
+    static XV11: &[u8] = include_bytes!("../lidar/tests/data/xv11.bin");
     /// Beams a revolution.
     const BINS: usize = 720;
 
@@ -89,6 +90,7 @@ mod firmware {
             bench("ld06", Ld06::new(), LD06),
             bench("rplidar", Rplidar::new(), RPLIDAR),
             bench("ydlidar", Ydlidar::new(), YDLIDAR),
+            bench("xv11", Xv11::new(), XV11),
         ];
         defmt::println!(
             "assembler {=usize} B ({=usize} beams)",

@@ -4,8 +4,9 @@
 An encoder independent of the Rust parsers (`lidar/src/`): it shares no code
 with them and follows the manufacturers' documents directly (LDRobot LD06
 development manual, Slamtec LR001 protocol document, YDLIDAR X4 development
-manual; see `docs/lidar/`). The tests decode the streams and check every
-range and angle against what is written here.
+manual, the XV-11 community protocol page; see `docs/lidar/`). The tests
+decode the streams and check every range and angle against what is written
+here.
 
 Source scans: the 20 `FLASER` scans of `cli/data/logs/seattle-excerpt.log`
 (real Seattle scans, 361 beams over 180 degrees, 0.5 degree apart, robot
@@ -22,7 +23,11 @@ capture starts mid-turn), the scans' turns, and one packet of a further
 turn that closes the last one (three nodes for RPLIDAR). RPLIDAR's starts
 with the SCAN response descriptor `A5 5A 05 00 00 40 81`.
 
-Files, per protocol P in ld06, rplidar, ydlidar:
+The XV-11 turns have 360 readings, one a degree, counter-clockwise (as the
+ROS xv_11_laser_driver publishes them): reading k is Seattle beam
+180 + 2k (mod 720); no return is the invalid flag.
+
+Files, per protocol P in ld06, rplidar, ydlidar, xv11:
 
 - `P.bin`: the bytes, as they would come off the UART;
 - `P.json`: {"protocol", "points_per_turn": 720, "lead_in_points",
@@ -167,6 +172,45 @@ def ydlidar_stream(turns):
     return bytes(out)
 
 
+# --- Neato XV-11: 22-byte packets, 15-bit checksum --------------------------
+
+
+def xv11_checksum(first20):
+    c = 0
+    for w in struct.unpack("<10H", first20):
+        c = ((c << 1) + w) & 0xFFFFFFFF
+    return ((c & 0x7FFF) + (c >> 15)) & 0x7FFF
+
+
+def xv11_packet(index, distances):
+    body = struct.pack("<BBH", 0xFA, 0xA0 + index, 300 * 64)
+    for d in distances:
+        # No return: the invalid flag (bit 15), as the sensor sends it.
+        body += struct.pack("<HH", d if d else 0x8000, 500 if d else 0)
+    return body + struct.pack("<H", xv11_checksum(body))
+
+
+def xv11_stream(turns):
+    out = bytearray()
+    for index in range(45, 90):
+        out += xv11_packet(index, [0] * 4)
+    for turn in turns + [[0] * 4]:
+        for index in range(len(turn) // 4):
+            out += xv11_packet(index, turn[4 * index : 4 * index + 4])
+    return bytes(out)
+
+
+def xv11_turn_m(scan):
+    """XV-11: 360 readings a turn, reading k at k degrees counter-clockwise
+    (as the ROS driver publishes them): Seattle beam j = 180 + 2k (mod 720)."""
+    out = []
+    for k in range(360):
+        j = (180 + 2 * k) % 720
+        r = scan[j] if 0 <= j < len(scan) else 0.0
+        out.append(0.0 if r >= NO_RETURN_M or r <= 0.0 else r)
+    return out
+
+
 def x4_correction_deg(sample):
     d = sample / 4.0
     return math.degrees(math.atan(21.8 * (155.3 - d) / (155.3 * d)))
@@ -181,17 +225,20 @@ def main():
         "ld06": (1, 65535, len(scans), ld06_stream),
         "rplidar": (4, 65535, 6, rplidar_stream),
         "ydlidar": (4, 65535, 6, ydlidar_stream),
+        # 14-bit millimetres.
+        "xv11": (1, 0x3FFF, 6, xv11_stream),
     }
     OUT.mkdir(parents=True, exist_ok=True)
     for name, (per_mm, limit, count, encode) in specs.items():
-        turns = [to_wire(m, per_mm, limit) for m in metres[:count]]
+        source = [xv11_turn_m(s) for s in scans] if name == "xv11" else metres
+        turns = [to_wire(m, per_mm, limit) for m in source[:count]]
         data = encode(turns)
         (OUT / f"{name}.bin").write_bytes(data)
         meta = {
             "protocol": name,
             "source": "cli/data/logs/seattle-excerpt.log (FLASER scans 0..%d)" % (count - 1),
-            "points_per_turn": POINTS,
-            "lead_in_points": POINTS // 2,
+            "points_per_turn": 360 if name == "xv11" else POINTS,
+            "lead_in_points": 180 if name == "xv11" else POINTS // 2,
             "unit_mm": 1.0 / per_mm,
             "turns": turns,
         }

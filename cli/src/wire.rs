@@ -1,9 +1,9 @@
 //! Raw lidar captures (issue 25): the bytes as they came off the UART of an
-//! LDRobot LD06 / LD19 / STL-19P, a Slamtec RPLIDAR (standard scan) or a
-//! YDLIDAR X2 / X4, decoded by the `hough-lidar` crate into one scan per
+//! LDRobot LD06 / LD19 / STL-19P, a Slamtec RPLIDAR (standard scan), a
+//! YDLIDAR X2 / X4 or a Neato XV-11 / LDS02RR, decoded by the `hough-lidar` crate into one scan per
 //! revolution.
 //!
-//! - `log CAPTURE --format ld06|rplidar|ydlidar` estimates the motion
+//! - `log CAPTURE --format ld06|rplidar|ydlidar|xv11` estimates the motion
 //!   between the revolutions ([`WireReader`] feeds `log`'s pairing);
 //! - `wire --protocol P CAPTURE --out LOG` writes the revolutions as a
 //!   CARMEN log, one `ROBOTLASER1` line each, which `log` (and other CARMEN
@@ -23,8 +23,11 @@ use std::path::PathBuf;
 use clap::{Args, ValueEnum};
 use hough_lidar::ld06::Ld06Layout;
 use hough_lidar::rplidar::RplidarLayout;
+use hough_lidar::xv11::Xv11Layout;
 use hough_lidar::ydlidar::YdlidarLayout;
-use hough_lidar::{AssemblerCounters, Counters, Layout, Ld06, Lidar, Revolution, Rplidar, Ydlidar};
+use hough_lidar::{
+    AssemblerCounters, Counters, Layout, Ld06, Lidar, Revolution, Rplidar, Xv11, Ydlidar,
+};
 
 use super::log::{Event, LogScan, RecordError};
 use super::scans::ScanRecord;
@@ -42,6 +45,8 @@ pub enum Protocol {
     Rplidar,
     /// YDLIDAR X2 / X4 (`AA 55` packets, XOR check, angle correction).
     Ydlidar,
+    /// Neato XV-11 / LDS02RR (22-byte `FA` packets, 15-bit checksum).
+    Xv11,
 }
 
 impl fmt::Display for Protocol {
@@ -50,6 +55,7 @@ impl fmt::Display for Protocol {
             Protocol::Ld06 => "ld06",
             Protocol::Rplidar => "rplidar",
             Protocol::Ydlidar => "ydlidar",
+            Protocol::Xv11 => "xv11",
         })
     }
 }
@@ -59,6 +65,7 @@ enum AnyLidar {
     Ld06(Box<Lidar<Ld06Layout, { Ld06::CAPACITY }, BINS>>),
     Rplidar(Box<Lidar<RplidarLayout, { Rplidar::CAPACITY }, BINS>>),
     Ydlidar(Box<Lidar<YdlidarLayout, { Ydlidar::CAPACITY }, BINS>>),
+    Xv11(Box<Lidar<Xv11Layout, { Xv11::CAPACITY }, BINS>>),
 }
 
 /// Feeds a byte (`None`: the end of the stream); a completed revolution,
@@ -98,6 +105,7 @@ impl AnyLidar {
             Protocol::Ld06 => AnyLidar::Ld06(Box::new(Lidar::new(Ld06::new(), max_range))),
             Protocol::Rplidar => AnyLidar::Rplidar(Box::new(Lidar::new(Rplidar::new(), max_range))),
             Protocol::Ydlidar => AnyLidar::Ydlidar(Box::new(Lidar::new(Ydlidar::new(), max_range))),
+            Protocol::Xv11 => AnyLidar::Xv11(Box::new(Lidar::new(Xv11::new(), max_range))),
         }
     }
 
@@ -107,6 +115,7 @@ impl AnyLidar {
             AnyLidar::Ld06(l) => feed(l, byte),
             AnyLidar::Rplidar(l) => feed(l, byte),
             AnyLidar::Ydlidar(l) => feed(l, byte),
+            AnyLidar::Xv11(l) => feed(l, byte),
         }
     }
 
@@ -115,6 +124,7 @@ impl AnyLidar {
             AnyLidar::Ld06(l) => (*l.parser().counters(), *l.assembler().counters()),
             AnyLidar::Rplidar(l) => (*l.parser().counters(), *l.assembler().counters()),
             AnyLidar::Ydlidar(l) => (*l.parser().counters(), *l.assembler().counters()),
+            AnyLidar::Xv11(l) => (*l.parser().counters(), *l.assembler().counters()),
         }
     }
 }

@@ -1,4 +1,4 @@
-//! `hough-heading wire` and `log --format ld06|rplidar|ydlidar` on the raw
+//! `hough-heading wire` and `log --format ld06|rplidar|ydlidar|xv11` on the raw
 //! captures of `lidar/tests/data/` (written from the Seattle scans of
 //! `cli/data/logs/seattle-excerpt.log` by `tools/lidar_streams.py`, an
 //! encoder independent of the parsers).
@@ -55,7 +55,7 @@ const QUICK: [&str; 3] = ["--size", "128", "-q"];
 
 #[test]
 fn log_reads_captures_one_scan_per_revolution() {
-    for (protocol, revolutions) in [("ld06", 20), ("rplidar", 6), ("ydlidar", 6)] {
+    for (protocol, revolutions) in [("ld06", 20), ("rplidar", 6), ("ydlidar", 6), ("xv11", 6)] {
         let file = capture(&format!("{protocol}.bin"));
         let out = tool(&[&["log", &file, "--format", protocol][..], &QUICK].concat());
         assert!(out.status.success(), "{protocol}: {}", stderr(&out));
@@ -111,7 +111,7 @@ fn capture_estimates_agree_with_the_source_log() {
 
 #[test]
 fn wire_writes_a_carmen_log_that_log_reads_back_bit_for_bit() {
-    for protocol in ["ld06", "rplidar", "ydlidar"] {
+    for protocol in ["ld06", "rplidar", "ydlidar", "xv11"] {
         let file = capture(&format!("{protocol}.bin"));
         let log = scratch(&format!("{protocol}.log"));
         let log_name = log.display().to_string();

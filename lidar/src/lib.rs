@@ -1,6 +1,7 @@
 //! `no_std` drivers for the spinning lidars of small robots, from the bytes
 //! on the UART to one scan per turn: LDRobot LD06 / LD19 / STL-19P, Slamtec
-//! RPLIDAR A1 / A2 / C1 (standard scan), YDLIDAR X2 / X4.
+//! RPLIDAR A1 / A2 / C1 (standard scan), YDLIDAR X2 / X4, Neato XV-11 /
+//! LDS02RR.
 //!
 //! No heap, no `unsafe`, no panic (checked at link time with the library's
 //! `tools/no-panic-check.sh`), every buffer sized at compile time. Usable
@@ -10,7 +11,8 @@
 //!
 //! # Pipeline
 //!
-//! 1. A [`Parser`] per protocol ([`Ld06`], [`Rplidar`], [`Ydlidar`]) takes
+//! 1. A [`Parser`] per protocol ([`Ld06`], [`Rplidar`], [`Ydlidar`],
+//!    [`Xv11`]) takes
 //!    one byte at a time, finds the packets, checks every checksum and
 //!    framing bit, and counts every byte it drops by cause ([`Counters`]).
 //!    After noise it resynchronises within one packet: a rejected
@@ -45,7 +47,7 @@
 //!
 //! Points ([`Point`]) are in the sensor's own frame: angle in 1/6400 °
 //! ([`UNITS_PER_DEGREE`]) from the sensor's zero in its own direction
-//! (clockwise for every sensor here), range in quarter millimetres.
+//! (clockwise for all but the XV-11), range in quarter millimetres.
 //! Revolutions are in `hough-heading`'s: bin `i` at `i·360°/N`
 //! counter-clockwise, ranges in metres; the mounting pose is the scan's
 //! `SensorOffset`. See [`revolution`] and `docs/lidar/` of the repository
@@ -70,6 +72,7 @@ mod point;
 pub mod ld06;
 pub mod revolution;
 pub mod rplidar;
+pub mod xv11;
 pub mod ydlidar;
 
 #[cfg(any(feature = "io", feature = "async"))]
@@ -90,6 +93,8 @@ pub use revolution::{Assembler, AssemblerCounters, Revolution, RevolutionStats};
 pub type Ld06 = Parser<ld06::Ld06Layout, { ld06::PACKET_LEN + 1 }>;
 /// Slamtec RPLIDAR standard-scan parser ([`rplidar`]).
 pub type Rplidar = Parser<rplidar::RplidarLayout, { rplidar::NODE_LEN * rplidar::LOCK_NODES + 1 }>;
+/// Neato XV-11 / LDS02RR parser ([`xv11`]).
+pub type Xv11 = Parser<xv11::Xv11Layout, { xv11::PACKET_LEN + 1 }>;
 /// YDLIDAR X2 / X4 parser ([`ydlidar`]).
 pub type Ydlidar = Parser<ydlidar::YdlidarLayout, { ydlidar::MAX_PACKET_LEN + 1 }>;
 

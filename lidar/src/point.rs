@@ -12,7 +12,7 @@ pub const UNITS_PER_TURN: u32 = 360 * UNITS_PER_DEGREE;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Direction {
-    /// Angles grow clockwise (every sensor of this crate).
+    /// Angles grow clockwise (LD06, RPLIDAR, YDLIDAR).
     Clockwise,
     /// Angles grow counter-clockwise (the convention of ROS and of
     /// `hough-heading`).
@@ -24,9 +24,9 @@ pub enum Direction {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Point {
     /// Angle from the sensor's zero (the front of its manual's coordinate
-    /// figure), in
-    /// [`UNITS_PER_DEGREE`] units, in `0..UNITS_PER_TURN`, growing in the
-    /// sensor's own [`Direction`] (clockwise for every sensor here).
+    /// figure), in [`UNITS_PER_DEGREE`] units, in `0..UNITS_PER_TURN`,
+    /// growing in the sensor's own [`Direction`] (clockwise for all but the
+    /// XV-11).
     pub angle: u32,
     /// Range in quarter millimetres (0.25 mm); 0 = no return.
     pub range_q2: u32,

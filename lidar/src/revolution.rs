@@ -4,8 +4,8 @@
 //!
 //! A revolution has `N` bins (a compile-time constant): bin `i` holds the
 //! beam at `i · 360°/N` **counter-clockwise** from the sensor's zero (its
-//! front), whatever the sensor's own direction (every sensor here turns
-//! clockwise: its angle `a` is the counter-clockwise angle `−a`). A point
+//! front), whatever the sensor's own direction (a clockwise sensor's angle
+//! `a` is the counter-clockwise angle `−a`). A point
 //! goes to the nearest bin (angle error at most half a bin, `180°/N`), its
 //! range in metres (`f32`, the quarter-millimetre reading divided by
 //! 4 000). Two returns in one bin keep the nearer one (counted in

@@ -13,7 +13,7 @@ mod common;
 use std::ops::Range;
 
 use common::{assert_bytes_accounted, decode, Decoded, Decoding, Fixture, Rng};
-use hough_lidar::{Counters, Ld06, Rplidar, Ydlidar};
+use hough_lidar::{Counters, Ld06, Rplidar, Xv11, Ydlidar};
 
 /// Trials per protocol and kind of damage.
 const TRIALS: usize = 150;
@@ -49,7 +49,7 @@ fn ydlidar_bounds(stream: &[u8]) -> Vec<Range<usize>> {
     out
 }
 
-const PROTOCOLS: [Protocol; 3] = [
+const PROTOCOLS: [Protocol; 4] = [
     Protocol {
         name: "ld06",
         decode: |s| decode(Ld06::new(), s),
@@ -68,6 +68,13 @@ const PROTOCOLS: [Protocol; 3] = [
         name: "ydlidar",
         decode: |s| decode(Ydlidar::new(), s),
         bounds: ydlidar_bounds,
+        descriptor_len: 0,
+        checked: true,
+    },
+    Protocol {
+        name: "xv11",
+        decode: |s| decode(Xv11::new(), s),
+        bounds: |s| fixed(s, 0, 22),
         descriptor_len: 0,
         checked: true,
     },

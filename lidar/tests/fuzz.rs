@@ -5,14 +5,14 @@
 //! within one turn; every revolution's ranges finite, positive and at most
 //! `max_range`, with its statistics consistent.
 //!
-//! 256 cases per property by default (6 properties); the long run sets
-//! `LIDAR_FUZZ_CASES`, e.g. `LIDAR_FUZZ_CASES=200000 cargo test --release
-//! -p hough-lidar --test fuzz` for 1.2·10⁶ inputs.
+//! 256 cases per property by default (8 properties); the long run sets
+//! `LIDAR_FUZZ_CASES`, e.g. `LIDAR_FUZZ_CASES=130000 cargo test -p
+//! hough-lidar --test fuzz` for over 10⁶ inputs.
 
 mod common;
 
 use common::{assert_bytes_accounted, decode, Fixture};
-use hough_lidar::{Layout, Ld06, Lidar, Parser, Rplidar, Ydlidar, UNITS_PER_TURN};
+use hough_lidar::{Layout, Ld06, Lidar, Parser, Rplidar, Xv11, Ydlidar, UNITS_PER_TURN};
 use proptest::prelude::*;
 
 const MAX_RANGE: f32 = 12.0;
@@ -117,6 +117,16 @@ proptest! {
     #[test]
     fn ydlidar_noise(bytes in noisy_bytes()) {
         check(Ydlidar::new(), &bytes, 0);
+    }
+
+    #[test]
+    fn xv11_noise(bytes in noisy_bytes()) {
+        check(Xv11::new(), &bytes, 0);
+    }
+
+    #[test]
+    fn xv11_edited(bytes in edited(Fixture::load("xv11").bytes)) {
+        check(Xv11::new(), &bytes, 0);
     }
 
     #[test]

@@ -7,10 +7,8 @@ mod common;
 
 use common::{assert_bytes_accounted, decode, Fixture};
 use hough_lidar::ydlidar::YdlidarLayout;
-use hough_lidar::{Layout, Ld06, Lidar, Parser, Point, Rplidar, Ydlidar, UNITS_PER_TURN};
+use hough_lidar::{Layout, Ld06, Lidar, Parser, Point, Rplidar, Xv11, Ydlidar, UNITS_PER_TURN};
 
-/// 0.5 ° in angle units.
-const HALF_DEGREE: u32 = 3_200;
 const BINS: usize = 720;
 const MAX_RANGE: f32 = 100.0;
 
@@ -33,8 +31,9 @@ fn expected_points(f: &Fixture, trailer: usize) -> Vec<(usize, u64)> {
 fn check_points(f: &Fixture, points: &[Point], trailer: usize) {
     let expected = expected_points(f, trailer);
     assert_eq!(points.len(), expected.len());
+    let step = UNITS_PER_TURN / f.points_per_turn() as u32;
     for (i, (p, &(k, d))) in points.iter().zip(&expected).enumerate() {
-        assert_eq!(p.angle, k as u32 * HALF_DEGREE, "point {i}");
+        assert_eq!(p.angle, k as u32 * step, "point {i}");
         assert_eq!(
             f64::from(p.range_q2) / 4.0,
             d as f64 * f.unit_mm(),
@@ -140,7 +139,7 @@ fn ydlidar_triangulation_correction_matches_the_manual_formula() {
     assert_eq!(points.len(), expected.len());
     let mut corrected = 0;
     for (p, &(k, d)) in points.iter().zip(&expected) {
-        let nominal = f64::from(k as u32 * HALF_DEGREE);
+        let nominal = f64::from(k as u32 * 3_200);
         let want = if d == 0 {
             nominal
         } else {
@@ -183,4 +182,34 @@ fn a_clockwise_quarter_turn_lands_in_the_counter_clockwise_bin() {
         // The point before the first wrap was the partial leading turn.
         assert_eq!(a.counters().leading_points, 1);
     }
+}
+
+#[test]
+fn xv11_round_trip() {
+    let f = Fixture::load("xv11");
+    let (packets, c, buffered) = decode(Xv11::new(), &f.bytes);
+    assert_bytes_accounted(f.bytes.len(), &packets, &c, buffered, 0);
+    assert_eq!((c.dropped_packets(), c.skipped_bytes, buffered), (0, 0, 0));
+    let points: Vec<Point> = packets.iter().flat_map(|p| p.points.clone()).collect();
+    check_points(&f, &points, 4);
+    // Quality: the signal strength the encoder writes, 500, saturated.
+    assert!(points
+        .iter()
+        .all(|p| p.quality == if p.range_q2 > 0 { 255 } else { 0 }));
+    // Counter-clockwise, one reading a degree: 360 beams, beam k = reading k.
+    let mut lidar: Lidar<_, { Xv11::CAPACITY }, 360> = Lidar::new(Xv11::new(), MAX_RANGE);
+    let turns = f.turns();
+    let mut seen = 0;
+    for &b in &f.bytes {
+        if lidar.push(b) {
+            let r = lidar.revolution().unwrap();
+            let turn = &turns[seen];
+            for (k, (&got, &d)) in r.ranges.iter().zip(turn).enumerate() {
+                let want = if d == 0 { MAX_RANGE } else { d as f32 / 1000.0 };
+                assert!((got - want).abs() <= 1e-6 * want, "turn {seen} beam {k}");
+            }
+            seen += 1;
+        }
+    }
+    assert_eq!(seen, turns.len());
 }

@@ -155,6 +155,8 @@ pub enum Format {
     Rplidar,
     /// Raw YDLIDAR X2 / X4 capture: one scan per revolution.
     Ydlidar,
+    /// Raw Neato XV-11 / LDS02RR capture: one scan per revolution.
+    Xv11,
 }
 
 /// Which scan pairs are estimated.
@@ -182,7 +184,7 @@ pub enum PriorArg {
 #[derive(Clone, Debug, Args)]
 pub struct LogArgs {
     /// The recording: a CARMEN log (`.gz` read directly), a ROS 2 bag
-    /// (`.mcap`), or a raw lidar capture (`--format ld06|rplidar|ydlidar`).
+    /// (`.mcap`), or a raw lidar capture (`--format ld06|rplidar|ydlidar|xv11`).
     pub file: PathBuf,
     /// Input format.
     #[arg(long, value_enum, default_value_t = Format::Auto)]
@@ -510,11 +512,12 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
             let events = CarmenReader::new(input, geometry).map(Ok);
             stream(&mut run, events)?
         }
-        Format::Ld06 | Format::Rplidar | Format::Ydlidar => {
+        Format::Ld06 | Format::Rplidar | Format::Ydlidar | Format::Xv11 => {
             let protocol = match format {
                 Format::Ld06 => crate::wire::Protocol::Ld06,
                 Format::Rplidar => crate::wire::Protocol::Rplidar,
-                _ => crate::wire::Protocol::Ydlidar,
+                Format::Ydlidar => crate::wire::Protocol::Ydlidar,
+                _ => crate::wire::Protocol::Xv11,
             };
             let offset = laser_offset.unwrap_or([0.0; 3]);
             let mut reader = crate::wire::WireReader::new(input, protocol, args.max_range, offset);

@@ -50,7 +50,9 @@ use hough_heading::{
     SensorOffset, Thresholds,
 };
 use hough_lidar::ydlidar::YdlidarLayout;
-use hough_lidar::{Assembler, Layout, Ld06, Lidar, Parser, Point, Revolution, Rplidar, Ydlidar};
+use hough_lidar::{
+    Assembler, Layout, Ld06, Lidar, Parser, Point, Revolution, Rplidar, Xv11, Ydlidar,
+};
 
 /// Any value of `T`, as far as the optimiser knows.
 fn opaque<T>(value: T) -> T {
@@ -493,6 +495,8 @@ fn entry_lidar_helpers(bytes: &[u8]) {
         hough_lidar::ydlidar::correction_units(opaque(0)),
         hough_lidar::ydlidar::starts_revolution(bytes),
         hough_lidar::rplidar::starts_revolution(bytes),
+        hough_lidar::xv11::checksum(bytes),
+        hough_lidar::xv11::rpm(bytes),
     ));
     let layout = if opaque(false) {
         YdlidarLayout::uncorrected()
