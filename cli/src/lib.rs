@@ -22,6 +22,7 @@ pub mod plot;
 pub mod scans;
 pub mod stats;
 pub mod summary;
+pub mod wire;
 
 use std::fmt;
 use std::io::{self, BufWriter, Write};
@@ -82,6 +83,9 @@ pub enum Command {
     /// Motion between the scans of a recording: a CARMEN log (`.gz` too) or
     /// a ROS 2 bag (MCAP); one JSON line per scan pair.
     Log(Box<log::LogArgs>),
+    /// A raw lidar capture (LD06, RPLIDAR, YDLIDAR bytes) as a CARMEN log,
+    /// one `ROBOTLASER1` line per revolution.
+    Wire(wire::WireArgs),
 }
 
 /// Which pipeline.
@@ -439,6 +443,7 @@ pub fn run(cli: &Cli) -> Result<usize, Fatal> {
         Command::Plot(args) => plot::run(args).map(|()| 0),
         Command::Mcu(args) => mcu::run(args),
         Command::Log(args) => log::run(args),
+        Command::Wire(args) => wire::run(args).map(|_| 0),
     }
 }
 
