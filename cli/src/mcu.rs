@@ -308,12 +308,13 @@ fn check(pairs_path: &Path, logs: &[PathBuf]) -> Result<usize, Fatal> {
             let l = String::from_utf8_lossy(l);
             l.trim().starts_with("config ") && l.contains("free_space=false")
         });
-        if !host_by_mode.contains_key(&free_space) {
-            let lines = host_lines(&bytes, free_space)
-                .map_err(|e| Fatal::io(format!("{}: {e}", pairs_path.display())))?;
-            host_by_mode.insert(free_space, lines);
-        }
-        let host = host_by_mode.get(&free_space).map_or(&[][..], Vec::as_slice);
+        let host = match host_by_mode.entry(free_space) {
+            std::collections::btree_map::Entry::Occupied(e) => e.into_mut(),
+            std::collections::btree_map::Entry::Vacant(e) => e.insert(
+                host_lines(&bytes, free_space)
+                    .map_err(|e| Fatal::io(format!("{}: {e}", pairs_path.display())))?,
+            ),
+        };
         let firmware: BTreeMap<u32, String> = lines(&text)
             .into_iter()
             .filter_map(|l| {
@@ -328,7 +329,7 @@ fn check(pairs_path: &Path, logs: &[PathBuf]) -> Result<usize, Fatal> {
             })
             .collect();
         let mut differ = 0;
-        for (index, line) in host {
+        for (index, line) in host.iter() {
             match firmware.get(index) {
                 Some(f) if f == line => {}
                 Some(f) => {

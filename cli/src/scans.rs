@@ -6,7 +6,8 @@
 //! summary.
 
 use hough_heading::{
-    Candidate, Estimate, HalfTurn, Mode, Prior, Raster, Scan, ScanStats, SensorOffset, Status,
+    Candidate, Estimate, HalfTurn, Mode, Prior, Raster, Scan, ScanStats, Score, SensorOffset,
+    Status,
 };
 use serde::{Deserialize, Serialize};
 
@@ -306,7 +307,7 @@ pub struct RunnerUp {
 
 impl RunnerUp {
     fn of(c: &Candidate) -> Self {
-        let value = |v: Option<hough_heading::Score>| v.map(|v| round(v.to_num::<f64>(), 4));
+        let value = |v: Option<Score>| v.map(|v| round(v.to_num::<f64>(), 4));
         Self {
             dtheta_deg: round(wrap_deg(-f64::from(c.alpha.to_degrees())), 4),
             alignment: value(c.alignment),
@@ -362,24 +363,9 @@ impl OutputLine {
                 .iter()
                 .map(|c| round(wrap_deg(-f64::from(c.alpha.to_degrees())), 4))
                 .collect(),
-            alignments: e
-                .candidates
-                .iter()
-                .filter_map(|c| c.alignment)
-                .map(|a| round(a.to_num::<f64>(), 4))
-                .collect(),
-            supports: e
-                .candidates
-                .iter()
-                .filter_map(|c| c.support)
-                .map(|a| round(a.to_num::<f64>(), 4))
-                .collect(),
-            free_space: e
-                .candidates
-                .iter()
-                .filter_map(|c| c.free_space)
-                .map(|a| round(a.to_num::<f64>(), 4))
-                .collect(),
+            alignments: candidate_values(e, |c| c.alignment),
+            supports: candidate_values(e, |c| c.support),
+            free_space: candidate_values(e, |c| c.free_space),
             runner_up: e.runner_up.as_ref().map(RunnerUp::of),
             overlap: e
                 .candidates
@@ -431,6 +417,15 @@ impl OutputLine {
             error: Some(message),
         }
     }
+}
+
+/// One score of each candidate that has it, rounded to 4 decimals.
+fn candidate_values(e: &Estimate, value: impl Fn(&Candidate) -> Option<Score>) -> Vec<f64> {
+    e.candidates
+        .iter()
+        .filter_map(value)
+        .map(|v| round(v.to_num::<f64>(), 4))
+        .collect()
 }
 
 /// Rounds to `digits` decimals (keeps the output short and stable).

@@ -6,8 +6,8 @@ use std::collections::HashSet;
 
 use host_tests::raycast::{Laser, Wall};
 use hough_heading::{
-    estimator, grid, stages::FREE_MARGIN_CELLS, stages::FREE_MARGIN_SHIFT, Angle, FreeSpace, Mode,
-    Raster, Scan, SensorOffset, Status,
+    estimator, grid, stages::FREE_MARGIN_CELLS, stages::FREE_MARGIN_SHIFT, Angle, Estimate,
+    FreeSpace, Mode, Raster, Scan, SensorOffset, Status,
 };
 use proptest::prelude::*;
 
@@ -131,6 +131,28 @@ fn view(laser: &Laser, ranges: &[f32], raster: &Raster) -> (G128, G128) {
     (grid, free)
 }
 
+/// The estimates of scan 2 against scan 1 with their free space and on the
+/// grids alone.
+fn estimates(
+    laser: &Laser,
+    first: &[f32],
+    second: &[f32],
+    raster: &Raster,
+) -> (Estimate, Estimate) {
+    let (g1, f1) = view(laser, first, raster);
+    let (g2, f2) = view(laser, second, raster);
+    let mut e = E128::new(Mode::Improved);
+    let reference = e.reference(&g1);
+    let free = FreeSpace {
+        reference: &f1,
+        current: &f2,
+    };
+    (
+        e.estimate_scans(&reference, &g2, &free, None),
+        e.estimate(&reference, &g2),
+    )
+}
+
 /// The scene rotation α for a robot that turned by `dtheta_deg` (α = −dθ).
 fn near_alpha(alpha: Angle, dtheta_deg: f64, tolerance_deg: f32) -> bool {
     alpha
@@ -170,16 +192,7 @@ fn a_corridor_revisited_from_the_other_end_is_resolved_by_free_space() {
     let first = laser.scan(&walls, (2.0, 0.2, 0.0));
     let second = laser.scan(&walls, (7.0, -0.1, std::f64::consts::PI));
     let raster = Raster::with_radius(9.0, 128).unwrap();
-    let (g1, f1) = view(&laser, &first, &raster);
-    let (g2, f2) = view(&laser, &second, &raster);
-    let mut e = E128::new(Mode::Improved);
-    let reference = e.reference(&g1);
-    let free = FreeSpace {
-        reference: &f1,
-        current: &f2,
-    };
-    let with_beams = e.estimate_scans(&reference, &g2, &free, None);
-    let grids_only = e.estimate(&reference, &g2);
+    let (with_beams, grids_only) = estimates(&laser, &first, &second, &raster);
     println!("grids only: {grids_only:?}");
     assert!(
         near_alpha(with_beams.alpha, 180.0, 2.0),
@@ -231,15 +244,7 @@ fn half_turns_with_partial_overlap_are_right_or_flagged() {
     for (a, b) in poses {
         let s1 = laser.scan(&walls, a);
         let s2 = laser.scan(&walls, b);
-        let (g1, f1) = view(&laser, &s1, &raster);
-        let (g2, f2) = view(&laser, &s2, &raster);
-        let mut e = E128::new(Mode::Improved);
-        let reference = e.reference(&g1);
-        let free = FreeSpace {
-            reference: &f1,
-            current: &f2,
-        };
-        let r = e.estimate_scans(&reference, &g2, &free, None);
+        let (r, _) = estimates(&laser, &s1, &s2, &raster);
         let dtheta = (b.2 - a.2).to_degrees();
         let ok = near_alpha(r.alpha, dtheta, 2.0);
         right += usize::from(ok);
