@@ -59,8 +59,12 @@ fn main() {
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rerun-if-changed=memory.x");
 
+    // `hh_small_ram`: the board has 16 KiB of RAM (the micro:bit); the
+    // real-scans firmware then leaves out the scans' free-space grids.
+    println!("cargo:rustc-check-cfg=cfg(hh_small_ram)");
     let target = env::var("TARGET").unwrap_or_default();
     let layout = if target.starts_with("thumbv6m-") {
+        println!("cargo:rustc-cfg=hh_small_ram");
         MICROBIT
     } else if target.starts_with("thumbv7em-") {
         MPS2_AN386

@@ -64,6 +64,17 @@ for target in "${ARM_TARGETS[@]}"; do
 done
 "$target_dir/release/hough-heading" mcu check host-tests/data/real-pairs.bin "${logs[@]}"
 
+# A raw lidar capture (issue 25): examples/lidar_heading.rs decodes the LD06
+# bytes with hough-lidar and estimates each revolution against the previous
+# one; every result must equal the host's (lidar/tests/data/ld06-headings.bin,
+# checked on the host by lidar/tests/firmware_reference.rs).
+section "lidar capture to heading on the MCUs, compared with the host"
+for target in "${ARM_TARGETS[@]}"; do
+    echo "--- lidar_heading on $target"
+    "$budgets" run --machine "${MACHINES[$target]}" --timeout 120 \
+        "$target_dir/$target/release/examples/lidar_heading"
+done
+
 section "examples build for riscv32imac-unknown-none-elf"
 cargo build --release --examples --target riscv32imac-unknown-none-elf
 

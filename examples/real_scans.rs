@@ -13,13 +13,16 @@
 //!    90th percentile of the valid ranges, clamped to 2–40 m), with segments
 //!    between neighbouring beams at most 0.3 m apart and no disc (the CLI's
 //!    defaults);
-//! 3. rasterizes scan 1 into a 128² grid and prepares the reference from it;
-//! 4. reads scan 2 again and rasterizes it into the same grid (the reference
+//! 3. rasterizes scan 1 into a 128² grid (and its free space, the cells its
+//!    beams crossed, into another) and prepares the reference from it;
+//! 4. reads scan 2 again and rasterizes it (and its free space) into the same
+//!    grid (the reference
 //!    keeps its own copy of scan 1's grid: one grid of RAM instead of two, and
 //!    the ranges are on the stack only while a scan is rasterized, which is
 //!    what makes the Cortex-M0's 16 KiB enough);
 //! 5. estimates (`Mode::Improved`, default thresholds, verification on,
-//!    `N_θ` = 360), as the CLI's `Estimator::estimate_pair` does.
+//!    `N_θ` = 360) with both scans' free space, as the CLI does
+//!    (`Estimator::estimate_scans`).
 //!
 //! It logs one result line per pair ([`write_result`]: every field of the
 //! rasterization and of the estimate as raw bits), and `hough-heading mcu
@@ -64,8 +67,8 @@ mod firmware {
     use core::mem::size_of;
 
     use hough_heading::{
-        estimator, grid, reference, Estimate, Mode, Raster, Scan, ScanStats, SensorOffset,
-        Thresholds,
+        estimator, grid, reference, Estimate, FreeSpace, Mode, Raster, Scan, ScanStats,
+        SensorOffset, Thresholds,
     };
     use semihosting::fs::File;
     use semihosting::io::{Read, Seek, SeekFrom};
@@ -188,7 +191,11 @@ mod firmware {
     /// scan 1 into `grid`. Not inlined: both scans' ranges (3 KiB) live in
     /// this frame only, not beside the reference or during the estimate.
     #[inline(never)]
-    fn first_scan(pairs: &mut Pairs, grid: &mut ScanGrid) -> Result<Window, &'static str> {
+    fn first_scan(
+        pairs: &mut Pairs,
+        grid: &mut ScanGrid,
+        free: Option<&mut ScanGrid>,
+    ) -> Result<Window, &'static str> {
         let mut index = [0u8; 4];
         pairs.read(&mut index)?;
         let mut ranges = [[0f32; MAX_BEAMS]; 2];
@@ -203,7 +210,14 @@ mod firmware {
         })
         .ok_or("no usable cell size")?;
         grid.clear_all();
-        let stats = measure(|| raster.rasterize(&scans[0], grid));
+        let stats = measure(|| {
+            let stats = raster.rasterize(&scans[0], grid);
+            if let Some(free) = free {
+                free.clear_all();
+                raster.free_space(&scans[0], free);
+            }
+            stats
+        });
         Ok(Window {
             index: u32::from_le_bytes(index),
             raster,
@@ -221,6 +235,7 @@ mod firmware {
         pairs: &mut Pairs,
         window: &Window,
         grid: &mut ScanGrid,
+        free: Option<&mut ScanGrid>,
     ) -> Result<ScanStats, &'static str> {
         pairs.seek(window.second_at)?;
         let mut ranges = [0f32; MAX_BEAMS];
@@ -230,7 +245,14 @@ mod firmware {
         }
         let scan = scan(&header, &ranges);
         grid.clear_all();
-        Ok(measure(|| window.raster.rasterize(&scan, grid)))
+        Ok(measure(|| {
+            let stats = window.raster.rasterize(&scan, grid);
+            if let Some(free) = free {
+                free.clear_all();
+                window.raster.free_space(&scan, free);
+            }
+            stats
+        }))
     }
 
     /// Logs the result line of a pair. Not inlined: the line buffer is not
@@ -242,7 +264,7 @@ mod firmware {
         stats: &[ScanStats; 2],
         estimate: &Estimate,
     ) -> Result<(), &'static str> {
-        let mut line = heapless::String::<768>::new();
+        let mut line = heapless::String::<1024>::new();
         pairs::write_result(
             &mut line,
             window.index,
@@ -266,14 +288,15 @@ mod firmware {
     #[cfg_attr(target_arch = "riscv32", riscv_rt::entry)]
     fn main() -> ! {
         defmt::println!(
-            "config side={=usize} n_theta={=usize} max_beams={=usize} estimator={=usize} reference={=usize} grid={=usize} ranges={=usize}",
+            "config side={=usize} n_theta={=usize} max_beams={=usize} estimator={=usize} reference={=usize} grid={=usize} ranges={=usize} free_space={=bool}",
             SIDE,
             N_THETA,
             MAX_BEAMS,
             size_of::<Estimator>(),
             size_of::<Reference>(),
             size_of::<ScanGrid>(),
-            2 * MAX_BEAMS * size_of::<f32>()
+            2 * MAX_BEAMS * size_of::<f32>(),
+            cfg!(not(hh_small_ram))
         );
         let mut path = [0u8; 256];
         if let Some(to) = path.get_mut(..PATH.len()) {
@@ -303,14 +326,42 @@ mod firmware {
             .with_thresholds(Thresholds::DEFAULT)
             .with_verification(true);
         let mut grid = ScanGrid::new();
+        // The free space of both scans (`Raster::free_space`): what their
+        // beams saw through, for `Estimator::estimate_scans`. Not on the
+        // 16 KiB micro:bit (`hh_small_ram`): its two 2 KiB grids do not fit
+        // beside the verified estimate; there the estimate uses the grids
+        // alone, as `hough-heading scans --no-free-space` does.
+        #[cfg(not(hh_small_ram))]
+        let mut free = [ScanGrid::new(), ScanGrid::new()];
         // The markers' own cost, subtracted by the budget tool.
         measure(|| ());
         for _ in 0..count {
-            let window = first_scan(&mut pairs, &mut grid).unwrap_or_else(|m| fail(m));
+            #[cfg(not(hh_small_ram))]
+            let (mut free_first, mut free_second) = {
+                let [first, second] = &mut free;
+                (Some(first), Some(second))
+            };
+            #[cfg(hh_small_ram)]
+            let (mut free_first, mut free_second): (
+                Option<&mut ScanGrid>,
+                Option<&mut ScanGrid>,
+            ) = (None, None);
+            let window = first_scan(&mut pairs, &mut grid, free_first.as_deref_mut())
+                .unwrap_or_else(|m| fail(m));
             let occupied_first = grid.occupied();
             let reference = measure(|| estimator.reference(&grid));
-            let second = second_scan(&mut pairs, &window, &mut grid).unwrap_or_else(|m| fail(m));
-            let estimate = measure(|| estimator.estimate(&reference, &grid));
+            let second = second_scan(&mut pairs, &window, &mut grid, free_second.as_deref_mut())
+                .unwrap_or_else(|m| fail(m));
+            let estimate = match (free_first.as_deref(), free_second.as_deref()) {
+                (Some(reference_free), Some(current_free)) => {
+                    let views = FreeSpace {
+                        reference: reference_free,
+                        current: current_free,
+                    };
+                    measure(|| estimator.estimate_scans(&reference, &grid, &views, None))
+                }
+                _ => measure(|| estimator.estimate(&reference, &grid)),
+            };
             let stats = [window.stats, second];
             report(
                 &window,

@@ -14,6 +14,8 @@ impl Angle {
     pub const ZERO: Angle = Angle(0);
     /// 180°.
     pub const HALF_TURN: Angle = Angle(1 << 31);
+    /// A quarter turn (90°).
+    pub const QUARTER_TURN: Angle = Angle(1 << 30);
 
     /// `steps_q16 / 2¹⁶` steps of `2π / n` (`n > 0`); e.g. the θ step `k` of
     /// an `n`-step circle with a sub-step fraction.

@@ -97,7 +97,8 @@
 //! * the answer: [`Estimate`], [`Status`], [`Candidate`]
 //!   ([`MAX_CANDIDATES`]), [`HalfTurnTest`] / [`HalfTurn`], [`Pose`]
 //!   (the pose: translation, scale, residual);
-//! * scans: [`Scan`], [`SensorOffset`], [`Raster`], [`ScanStats`], [`Motion`].
+//! * scans: [`Scan`], [`SensorOffset`], [`Raster`], [`ScanStats`],
+//!   [`FreeSpace`] (what the beams saw through), [`Motion`].
 //!
 //! Under [`config`]: the sizes (`row_words`, `half_turn_steps`, `rho_bins`,
 //! `pyramid_words`, `recommended_n_theta`, …). Under [`stages`]: every
@@ -136,7 +137,7 @@ pub use motion::Motion;
 pub use pose::scale::ScaleRange;
 pub use pose::Pose;
 pub use reference::Reference;
-pub use scan::{Raster, Scan, ScanStats, SensorOffset};
+pub use scan::{FreeSpace, Raster, Scan, ScanStats, SensorOffset};
 
 /// The pipeline's stages on their own, below the [`Estimator`]: Hough votes,
 /// signatures, the correlation, profile matches, the paper's direction
@@ -159,7 +160,7 @@ pub mod stages {
     pub use crate::reference::{Profile, PROFILE_COLUMNS, REFERENCE_FORMAT};
     pub use crate::scan::{
         range_percentile, BeamEnd, ScanBeams, AUTO_MAX_RADIUS_M, AUTO_MIN_RADIUS_M,
-        AUTO_PERCENTILE, BEAM_FAR_CELLS, BEAM_NEAR_CELLS,
+        AUTO_PERCENTILE, BEAM_FAR_CELLS, BEAM_NEAR_CELLS, FREE_MARGIN_CELLS, FREE_MARGIN_SHIFT,
     };
     pub use crate::signature::{ColumnStats, PeakKind, Signature, ASYMMETRY_FRACTION_BITS};
     pub use crate::trig::{TrigTable, TRIG_FRACTION_BITS};

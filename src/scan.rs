@@ -52,9 +52,11 @@
 //! are dropped and counted in [`ScanStats`], never an error.
 
 mod beam;
+mod free;
 mod sine;
 
 pub use beam::{BeamEnd, ScanBeams, BEAM_FAR_CELLS, BEAM_NEAR_CELLS};
+pub use free::{FreeSpace, FREE_MARGIN_CELLS, FREE_MARGIN_SHIFT};
 
 use crate::grid::Grid;
 use beam::{binary_angle, count_dropped};

@@ -190,6 +190,9 @@ fn demo_images(source: Source<'_>) -> Result<(usize, usize), Fatal> {
         max_shift: None,
         no_verify: false,
         alignment_ratio: None,
+        decision_gap: None,
+        free_space_weight: None,
+        no_free_space: false,
         min_overlap: None,
     };
     let threshold = Threshold {

@@ -7,7 +7,7 @@
 use hough_heading::{
     config::half_turn_steps, config::pyramid_words, config::rho_bins, config::row_words,
     stages::Accumulator, stages::Correlation, stages::PeakKind, stages::Signature, Estimate,
-    Estimator, Grid, Mode, Prior, Raster, ScaleRange, Scan, ScanStats, Thresholds,
+    Estimator, FreeSpace, Grid, Mode, Prior, Raster, ScaleRange, Scan, ScanStats, Thresholds,
 };
 
 use crate::images::Image;
@@ -64,7 +64,12 @@ pub trait Engine {
     fn set_scale_search(&mut self, range: Option<ScaleRange>);
     /// Turns the improved mode's verification by alignment on or off.
     fn set_verification(&mut self, on: bool);
-    /// Clears the grid of `view` and draws `scan` into it.
+    /// Whether estimates on rasterized scans use their free space (the
+    /// default) or the grids alone.
+    fn set_free_space(&mut self, on: bool);
+    /// Clears the grid of `view` and draws `scan` into it, with the cells its
+    /// beams crossed (`Raster::free_space`): an estimate on two rasterized
+    /// scans uses their free space (`Estimator::estimate_scans`).
     fn rasterize(&mut self, view: View, scan: &Scan<'_>, raster: &Raster) -> ScanStats;
     /// Replaces the grid of `view` by `image` (cells beyond the grid are
     /// ignored; callers check the size first).
@@ -92,6 +97,10 @@ struct Config<
     const PW: usize,
 > {
     grids: [Grid<W, H, RW>; 2],
+    /// The free space of each view, when it was rasterized from a scan.
+    free: [Option<Grid<W, H, RW>>; 2],
+    /// Estimates use `free` when both views have it.
+    use_free: bool,
     improved: Estimator<W, H, RW, N, HALF, RHO, PW>,
     paper: Estimator<W, H, RW, N, HALF, RHO, PW>,
 }
@@ -133,13 +142,22 @@ impl<
         self.improved = improved;
     }
 
+    fn set_free_space(&mut self, on: bool) {
+        self.use_free = on;
+    }
+
     fn rasterize(&mut self, view: View, scan: &Scan<'_>, raster: &Raster) -> ScanStats {
         let grid = &mut self.grids[view.index()];
         grid.clear_all();
-        raster.rasterize(scan, grid)
+        let stats = raster.rasterize(scan, grid);
+        let mut free = Grid::new();
+        raster.free_space(scan, &mut free);
+        self.free[view.index()] = Some(free);
+        stats
     }
 
     fn load(&mut self, view: View, image: &Image) {
+        self.free[view.index()] = None;
         let grid = &mut self.grids[view.index()];
         grid.clear_all();
         // Cells beyond W × H are rejected by the grid; the caller checked the size.
@@ -165,9 +183,18 @@ impl<
             Mode::Improved => &mut self.improved,
             Mode::Paper => &mut self.paper,
         };
-        // `estimate_pair` is exactly this with no prior.
+        // `estimate_pair` is exactly this with no prior and no scans.
         let reference = estimator.reference(first);
-        estimator.estimate_with_prior(&reference, second, prior)
+        match &self.free {
+            [Some(reference_free), Some(current_free)] if self.use_free => {
+                let free = FreeSpace {
+                    reference: reference_free,
+                    current: current_free,
+                };
+                estimator.estimate_scans(&reference, second, &free, prior)
+            }
+            _ => estimator.estimate_with_prior(&reference, second, prior),
+        }
     }
 
     fn figures(&self, mode: Mode) -> Figures {
@@ -251,6 +278,8 @@ macro_rules! configurations {
                     { pyramid_words($size, $size) },
                 > {
                     grids: [Grid::new(), Grid::new()],
+                    free: [None, None],
+                    use_free: true,
                     improved: Estimator::new(Mode::Improved),
                     paper: Estimator::new(Mode::Paper),
                 })),)*

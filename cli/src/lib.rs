@@ -22,6 +22,7 @@ pub mod plot;
 pub mod scans;
 pub mod stats;
 pub mod summary;
+pub mod wire;
 
 use std::fmt;
 use std::io::{self, BufWriter, Write};
@@ -82,6 +83,9 @@ pub enum Command {
     /// Motion between the scans of a recording: a CARMEN log (`.gz` too) or
     /// a ROS 2 bag (MCAP); one JSON line per scan pair.
     Log(Box<log::LogArgs>),
+    /// A raw lidar capture (LD06, RPLIDAR, YDLIDAR bytes) as a CARMEN log,
+    /// one `ROBOTLASER1` line per revolution.
+    Wire(wire::WireArgs),
 }
 
 /// Which pipeline.
@@ -127,11 +131,25 @@ pub struct EstimatorArgs {
     /// correlation and the column-profile test decide alone).
     #[arg(long)]
     pub no_verify: bool,
-    /// Tuning (verification): ambiguous unless the best candidate's
-    /// alignment reaches this multiple of the best one ≥ 5° away (library
-    /// default 1.15).
+    /// Tuning (verification): rotations whose best alignment cannot reach
+    /// the best one's divided by this are not searched to the end nor
+    /// listed (library default 2).
     #[arg(long, value_name = "RATIO")]
     pub alignment_ratio: Option<f64>,
+    /// Tuning (verification): ambiguous unless the winner's support leads
+    /// the runner-up's (≥ 5° away) by this much (library default 0.08;
+    /// docs/confidence.md).
+    #[arg(long, value_name = "GAP")]
+    pub decision_gap: Option<f64>,
+    /// Tuning (verification on scans): the weight of a free-space violation
+    /// share in the support, in [0, 64] (library default 2).
+    #[arg(long, value_name = "WEIGHT")]
+    pub free_space_weight: Option<f64>,
+    /// On scans, estimate from the grids alone, without the free space the
+    /// beams saw through (as the 16 KiB Cortex-M0 firmware does).
+    #[arg(long)]
+    pub no_free_space: bool,
+
     /// Tuning (verification): `low_overlap` when the chosen pose puts less
     /// than this share of the second view within one cell of the first
     /// (library default 0.30).
@@ -148,6 +166,7 @@ impl EstimatorArgs {
         let mut engine = engine_for(size, self.n_theta)?;
         engine.set_thresholds(self.thresholds()?);
         engine.set_verification(!self.no_verify);
+        engine.set_free_space(!self.no_free_space);
         Ok(engine)
     }
 
@@ -167,6 +186,7 @@ impl EstimatorArgs {
             ),
             ("--max-shift", self.max_shift, &mut t.max_shift_fraction),
             ("--min-overlap", self.min_overlap, &mut t.min_overlap),
+            ("--decision-gap", self.decision_gap, &mut t.decision_gap),
         ] {
             if let Some(v) = value {
                 if !(0.0..=1.0).contains(&v) {
@@ -182,6 +202,14 @@ impl EstimatorArgs {
                 )));
             }
             t.alignment_ratio = Score::from_num(v);
+        }
+        if let Some(v) = self.free_space_weight {
+            if !(0.0..=64.0).contains(&v) {
+                return Err(Fatal::usage(format!(
+                    "--free-space-weight {v}: must be in [0, 64]"
+                )));
+            }
+            t.free_space_weight = Score::from_num(v);
         }
         Ok(t)
     }
@@ -424,6 +452,7 @@ pub fn run(cli: &Cli) -> Result<usize, Fatal> {
         Command::Plot(args) => plot::run(args).map(|()| 0),
         Command::Mcu(args) => mcu::run(args),
         Command::Log(args) => log::run(args),
+        Command::Wire(args) => wire::run(args).map(|_| 0),
     }
 }
 
@@ -487,9 +516,13 @@ pub struct CandidateJson {
     /// Correlation × direction share, in [0, 1].
     pub score: f64,
     /// How well this rotation's best translation aligns B onto A, in [0, 1]
-    /// (verification on; candidates are then sorted by it).
+    /// (verification on).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub alignment: Option<f64>,
+    /// The decision score: both-way alignment on a large sample
+    /// (verification on; candidates are sorted by it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub support: Option<f64>,
 }
 
 /// An engine holding two images, and each image's offset in the grid
@@ -607,6 +640,7 @@ pub fn images_answer(
                 alpha_deg: scans::round(f64::from(c.alpha.to_degrees()), 4),
                 score: scans::round(c.score.to_num::<f64>(), 4),
                 alignment: c.alignment.map(|a| scans::round(a.to_num::<f64>(), 4)),
+                support: c.support.map(|a| scans::round(a.to_num::<f64>(), 4)),
             })
             .collect(),
         overlap: e

@@ -246,11 +246,13 @@ pub fn decode(bytes: &[u8]) -> Result<Vec<(u32, PairRecord)>, String> {
 ///
 /// # Errors
 /// A malformed pair file, or a pair the CLI cannot estimate.
-pub fn host_lines(bytes: &[u8]) -> Result<Vec<(u32, String)>, String> {
+pub fn host_lines(bytes: &[u8], free_space: bool) -> Result<Vec<(u32, String)>, String> {
     let mut engine = engine_for(pairs::SIDE, pairs::N_THETA).map_err(|e| e.to_string())?;
-    // As `EstimatorArgs::engine` with no tuning options.
+    // As `EstimatorArgs::engine` with no tuning options (and
+    // `--no-free-space` when the firmware estimated without it).
     engine.set_thresholds(Thresholds::DEFAULT);
     engine.set_verification(true);
+    engine.set_free_space(free_space);
     let options = RasterOptions {
         cell: None,
         connect: Some(scans::DEFAULT_CONNECT_M),
@@ -296,11 +298,23 @@ const SHOWN: usize = 10;
 
 fn check(pairs_path: &Path, logs: &[PathBuf]) -> Result<usize, Fatal> {
     let bytes = read_input(pairs_path)?;
-    let host =
-        host_lines(&bytes).map_err(|e| Fatal::io(format!("{}: {e}", pairs_path.display())))?;
+    // The host's lines with and without the scans' free space, as each
+    // firmware log's config line says it estimated (`free_space=`).
+    let mut host_by_mode: BTreeMap<bool, Vec<(u32, String)>> = BTreeMap::new();
     let mut bad = 0;
     for log in logs {
         let text = read_input(log)?;
+        let free_space = !lines(&text).into_iter().any(|l| {
+            let l = String::from_utf8_lossy(l);
+            l.trim().starts_with("config ") && l.contains("free_space=false")
+        });
+        let host = match host_by_mode.entry(free_space) {
+            std::collections::btree_map::Entry::Occupied(e) => e.into_mut(),
+            std::collections::btree_map::Entry::Vacant(e) => e.insert(
+                host_lines(&bytes, free_space)
+                    .map_err(|e| Fatal::io(format!("{}: {e}", pairs_path.display())))?,
+            ),
+        };
         let firmware: BTreeMap<u32, String> = lines(&text)
             .into_iter()
             .filter_map(|l| {
@@ -315,7 +329,7 @@ fn check(pairs_path: &Path, logs: &[PathBuf]) -> Result<usize, Fatal> {
             })
             .collect();
         let mut differ = 0;
-        for (index, line) in &host {
+        for (index, line) in host.iter() {
             match firmware.get(index) {
                 Some(f) if f == line => {}
                 Some(f) => {

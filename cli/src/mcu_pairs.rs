@@ -45,7 +45,7 @@
 
 use core::fmt::{self, Write};
 
-use hough_heading::{Estimate, HalfTurn, ScanStats, Status};
+use hough_heading::{Candidate, Estimate, HalfTurn, ScanStats, Status};
 
 /// First bytes of a pair file.
 pub const MAGIC: [u8; 4] = *b"HHSP";
@@ -210,15 +210,12 @@ pub fn write_result(
         if i > 0 {
             out.write_char(';')?;
         }
-        write!(out, "{}:{}:", c.alpha.0, c.score.to_bits())?;
-        match c.alignment {
-            Some(a) => write!(out, "{}:", a.to_bits())?,
-            None => out.write_str("-:")?,
-        }
-        match c.translation {
-            Some((x, y)) => write!(out, "{},{}", x.to_bits(), y.to_bits())?,
-            None => out.write_str("-")?,
-        }
+        write_candidate(out, c)?;
+    }
+    out.write_str(" runner_up=")?;
+    match &e.runner_up {
+        Some(c) => write_candidate(out, c)?,
+        None => out.write_str("-")?,
     }
     out.write_str(" translation=")?;
     match &e.translation {
@@ -239,4 +236,24 @@ pub fn write_result(
         }
         None => out.write_str("-"),
     }
+}
+
+/// One candidate: `alpha:score:alignment:x,y:support:free_space`, raw bits,
+/// `-` for a missing value.
+fn write_candidate(out: &mut impl Write, c: &Candidate) -> fmt::Result {
+    let bits = |out: &mut dyn Write, v: Option<hough_heading::Score>| match v {
+        Some(v) => write!(out, "{}", v.to_bits()),
+        None => out.write_str("-"),
+    };
+    write!(out, "{}:{}:", c.alpha.0, c.score.to_bits())?;
+    bits(out, c.alignment)?;
+    out.write_char(':')?;
+    match c.translation {
+        Some((x, y)) => write!(out, "{},{}", x.to_bits(), y.to_bits())?,
+        None => out.write_str("-")?,
+    }
+    out.write_char(':')?;
+    bits(out, c.support)?;
+    out.write_char(':')?;
+    bits(out, c.free_space)
 }

@@ -6,7 +6,8 @@
 //! summary.
 
 use hough_heading::{
-    Estimate, HalfTurn, Mode, Prior, Raster, Scan, ScanStats, SensorOffset, Status,
+    Candidate, Estimate, HalfTurn, Mode, Prior, Raster, Scan, ScanStats, Score, SensorOffset,
+    Status,
 };
 use serde::{Deserialize, Serialize};
 
@@ -240,6 +241,18 @@ pub struct OutputLine {
     /// Each candidate's alignment score in [0, 1] (verification on).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub alignments: Vec<f64>,
+    /// Each candidate's support (the decision score: both-way alignment
+    /// minus the free-space weight times `free_space`; verification on).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub supports: Vec<f64>,
+    /// Each candidate's free-space violation share: the points of either
+    /// scan it lays where the other sensor saw through (verification on).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub free_space: Vec<f64>,
+    /// The best rotation at least 5° from the answer, whatever its score
+    /// (verification on; null when there was none).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub runner_up: Option<RunnerUp>,
     /// Share of scan 2 the chosen pose puts within one cell of scan 1
     /// (verification on).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -276,6 +289,32 @@ pub struct OutputLine {
     /// Why the line failed.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
+}
+
+/// The runner-up of an estimate (`Estimate::runner_up`), in the file's
+/// convention.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct RunnerUp {
+    /// Its heading change, degrees in (−180, 180].
+    pub dtheta_deg: f64,
+    /// Its alignment (search sample) in [0, 1].
+    pub alignment: Option<f64>,
+    /// Its support, the decision score.
+    pub support: Option<f64>,
+    /// Its free-space violation share.
+    pub free_space: Option<f64>,
+}
+
+impl RunnerUp {
+    fn of(c: &Candidate) -> Self {
+        let value = |v: Option<Score>| v.map(|v| round(v.to_num::<f64>(), 4));
+        Self {
+            dtheta_deg: round(wrap_deg(-f64::from(c.alpha.to_degrees())), 4),
+            alignment: value(c.alignment),
+            support: value(c.support),
+            free_space: value(c.free_space),
+        }
+    }
 }
 
 /// The beams of one scan that set no cell, by reason.
@@ -324,12 +363,10 @@ impl OutputLine {
                 .iter()
                 .map(|c| round(wrap_deg(-f64::from(c.alpha.to_degrees())), 4))
                 .collect(),
-            alignments: e
-                .candidates
-                .iter()
-                .filter_map(|c| c.alignment)
-                .map(|a| round(a.to_num::<f64>(), 4))
-                .collect(),
+            alignments: candidate_values(e, |c| c.alignment),
+            supports: candidate_values(e, |c| c.support),
+            free_space: candidate_values(e, |c| c.free_space),
+            runner_up: e.runner_up.as_ref().map(RunnerUp::of),
             overlap: e
                 .candidates
                 .iter()
@@ -364,6 +401,9 @@ impl OutputLine {
             confidence: None,
             candidates_deg: Vec::new(),
             alignments: Vec::new(),
+            supports: Vec::new(),
+            free_space: Vec::new(),
+            runner_up: None,
             overlap: None,
             dx_m: None,
             dy_m: None,
@@ -377,6 +417,15 @@ impl OutputLine {
             error: Some(message),
         }
     }
+}
+
+/// One score of each candidate that has it, rounded to 4 decimals.
+fn candidate_values(e: &Estimate, value: impl Fn(&Candidate) -> Option<Score>) -> Vec<f64> {
+    e.candidates
+        .iter()
+        .filter_map(value)
+        .map(|v| round(v.to_num::<f64>(), 4))
+        .collect()
 }
 
 /// Rounds to `digits` decimals (keeps the output short and stable).

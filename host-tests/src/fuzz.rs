@@ -54,8 +54,10 @@ pub fn fuzz<S: Strategy>(
 /// pose: the scale inside the searched range (exactly 1 without a search), a
 /// residual ≥ 0, an unobservable direction of unit length; and of the
 /// verification by alignment: the overlap and every alignment in [0, 1],
-/// candidate alignments present on all candidates of a verified estimate
-/// (sorted by them) and on none otherwise (sorted by score; overlap 0),
+/// candidate alignments and supports present on all candidates of a
+/// verified estimate (sorted by support, each at most 1, free-space shares
+/// in [0, 1], a runner-up at least 5° from the winner's search pose) and on
+/// none otherwise (sorted by score; overlap 0, no runner-up),
 /// `LowOverlap` only when verified. `verified` says whether the estimator
 /// was set to verify (improved mode, verification on; with or without the
 /// scale search), or `None` when the caller cannot know (the command-line
@@ -110,8 +112,16 @@ pub fn check(
         prop_assert!(e.candidates.iter().all(|c| c.alignment.is_some()), "{e:?}");
         prop_assert!(
             e.candidates
+                .iter()
+                .chain(&e.runner_up)
+                .all(|c| c.support.is_some_and(|s| s <= Score::ONE)
+                    && c.free_space.is_none_or(|f| unit.contains(&f))),
+            "{e:?}"
+        );
+        prop_assert!(
+            e.candidates
                 .windows(2)
-                .all(|w| w[0].alignment >= w[1].alignment),
+                .all(|w| w[0].support >= w[1].support),
             "{e:?}"
         );
     } else {
@@ -121,6 +131,7 @@ pub fn check(
         );
         prop_assert_ne!(e.status, Status::LowOverlap, "{:?}", e);
         prop_assert_eq!(e.overlap, Score::ZERO, "{:?}", e);
+        prop_assert!(e.runner_up.is_none(), "{e:?}");
     }
     if e.status == Status::LowOverlap {
         prop_assert!(verified != Some(false), "{e:?}");

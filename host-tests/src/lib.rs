@@ -13,6 +13,8 @@ pub mod fuzz;
 #[cfg(not(target_os = "none"))]
 pub mod pose_reference;
 #[cfg(not(target_os = "none"))]
+pub mod raycast;
+#[cfg(not(target_os = "none"))]
 pub mod reference;
 #[cfg(not(target_os = "none"))]
 pub mod scene;

@@ -54,8 +54,9 @@ pub fn points_for(width: usize, height: usize) -> usize {
 /// (the library's `Thresholds::min_overlap` default).
 pub const MIN_OVERLAP: f64 = 0.30;
 
-/// Default lead of the winner's alignment over its rival (the library's
-/// `Thresholds::alignment_ratio` default).
+/// Lead of the winner's alignment over its rival below which the
+/// reference's own verdict is ambiguous (the library's rule up to 0.2; the
+/// library now decides on both-way support, `docs/confidence.md`).
 pub const ALIGNMENT_RATIO: f64 = 1.15;
 
 /// Smallest angular distance of a rival rotation, degrees.

@@ -243,8 +243,9 @@ fn check_invariants(e: &Estimate, what: &str) {
         );
     }
     assert!(unit.contains(&e.overlap), "{what}: overlap {e:?}");
-    // Verified estimates carry an alignment on every candidate and are
-    // sorted by it; the others carry none and are sorted by score.
+    // Verified estimates carry an alignment and a support on every
+    // candidate and are sorted by support; the others carry neither and are
+    // sorted by score.
     let verified = e.candidates.iter().any(|c| c.alignment.is_some());
     if verified {
         assert!(
@@ -254,8 +255,8 @@ fn check_invariants(e: &Estimate, what: &str) {
         assert!(
             e.candidates
                 .windows(2)
-                .all(|w| w[0].alignment >= w[1].alignment),
-            "{what}: candidates unsorted by alignment {e:?}"
+                .all(|w| w[0].support >= w[1].support),
+            "{what}: candidates unsorted by support {e:?}"
         );
     } else {
         assert!(

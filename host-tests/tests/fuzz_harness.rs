@@ -49,8 +49,8 @@ use hough_heading::{
     config::rho_bins, config::row_words, stages::fit_translation, stages::match_profile,
     stages::paper_asymmetry, stages::range_percentile, stages::ColumnShift, stages::ColumnStats,
     stages::Correlation, stages::PeakKind, stages::Shift, stages::Signature,
-    stages::MAX_FIT_COLUMNS, stages::RUNNERS_UP, Angle, Estimator, Grid, Mode, Prior, Raster,
-    Reference, ScaleRange, Scan, Score, SensorOffset, Status, Thresholds,
+    stages::MAX_FIT_COLUMNS, stages::RUNNERS_UP, Angle, Estimator, FreeSpace, Grid, Mode, Prior,
+    Raster, Reference, ScaleRange, Scan, Score, SensorOffset, Status, Thresholds,
 };
 use proptest::prelude::*;
 
@@ -59,7 +59,8 @@ mod common;
 /// Thresholds anywhere in their sane range (the extremes are finding F7 of
 /// `adversarial.rs`): ratios and margins in [0, 2] with at least 1/1024,
 /// shift fractions and the minimum overlap in [0, 1], the alignment ratio in
-/// [0, 2].
+/// [0, 2]; the decision gap and the free-space weight from just below 0 to
+/// beyond their clamps.
 fn thresholds() -> impl Strategy<Value = Thresholds> {
     (
         0i32..=2 << 16,
@@ -68,14 +69,17 @@ fn thresholds() -> impl Strategy<Value = Thresholds> {
         0i32..=1 << 16,
         0i32..=2 << 16,
         0i32..=1 << 16,
+        (-1i32..=1 << 16, -1i32..=70 << 16),
     )
-        .prop_map(|(r, d, m, s, a, o)| Thresholds {
+        .prop_map(|(r, d, m, s, a, o, (g, f))| Thresholds {
             rival_ratio: Score::from_bits(r),
             direction_margin: Score::from_bits(d),
             min_occupied: m,
             max_shift_fraction: Score::from_bits(s),
             alignment_ratio: Score::from_bits(a),
             min_overlap: Score::from_bits(o),
+            decision_gap: Score::from_bits(g),
+            free_space_weight: Score::from_bits(f),
         })
 }
 
@@ -164,7 +168,7 @@ fn estimator_on_grids<
         let plain = e.estimate(&reference, &pair.1);
         check(&plain, false, s, verified)?;
         if verified == Some(true) {
-            common::check_status_rule::<N>(&plain, &t, &pair.1)?;
+            common::check_status_rule::<N>(&plain, &t)?;
         }
         check(
             &e.estimate_with_prior(&reference, &pair.1, p),
@@ -489,12 +493,14 @@ fn verification_on_hostile_grids<
             let plain = e.estimate(&reference, &g2);
             check(&plain, false, s, Some(v))?;
             if v {
-                common::check_status_rule::<N>(&plain, &t, &g2)?;
+                common::check_status_rule::<N>(&plain, &t)?;
             }
-            // The same grid against itself aligns exactly at 0°.
+            // The same grid against itself aligns exactly at 0°: a confident
+            // answer has 0° among its candidates (a grid so dense or
+            // periodic that other poses tie with 0° is not confident).
             let same = e.estimate(&reference, &g1);
             check(&same, false, s, Some(v))?;
-            if v && same.status != Status::NoStructure && s.is_none() {
+            if v && same.status == Status::Confident && s.is_none() {
                 let zero = same
                     .candidates
                     .iter()
@@ -843,6 +849,27 @@ fn fuzz_scans() {
             check(&est, false, None, Some(true))?;
             let motion = raster.motion(est.alpha, est.translation.as_ref());
             prop_assert!(motion.dtheta.abs() <= std::f32::consts::PI + 1e-4);
+            // The free space of each scan, and the estimate that uses it.
+            let mut f1 = Grid::<64, 64, 2>::new();
+            let mut f2 = Grid::<64, 64, 2>::new();
+            for (scan, free) in [(&sa, &mut f1), (&sb, &mut f2)] {
+                let traced = raster.free_space(scan, free);
+                prop_assert!(traced as usize <= scan.ranges.len());
+            }
+            let reference = e.reference(&g1);
+            let views = FreeSpace {
+                reference: &f1,
+                current: &f2,
+            };
+            let scans = e.estimate_scans(&reference, &g2, &views, None);
+            check(&scans, false, None, Some(true))?;
+            prop_assert!(
+                scans
+                    .candidates
+                    .iter()
+                    .all(|c| c.free_space.is_some() == c.alignment.is_some()),
+                "{scans:?}"
+            );
             Ok(())
         },
     );
@@ -1006,7 +1033,7 @@ fn estimator_on_scenes<
             let plain = e.estimate(&reference, &g2);
             check(&plain, false, s, verified)?;
             if verified == Some(true) {
-                common::check_status_rule::<N>(&plain, &t, &g2)?;
+                common::check_status_rule::<N>(&plain, &t)?;
                 if plain.status == Status::Confident {
                     confident.set(confident.get() + 1);
                 }

@@ -49,6 +49,20 @@ pub struct Candidate {
     /// for the chosen one (where [`Estimate::translation`] also holds it).
     /// `None` without verification.
     pub translation: Option<(I16F16, I16F16)>,
+    /// With verification: what the decision compares, in
+    /// [−[`Thresholds::free_space_weight`], 1]: the pose judged both ways
+    /// on a large sample (the mean of the two alignments, each view onto
+    /// the other) minus the free-space weight times [`Self::free_space`].
+    /// Candidates are sorted by it. `None` without verification.
+    pub support: Option<Score>,
+    /// With verification on scans
+    /// ([`Estimator::estimate_scans`](crate::Estimator::estimate_scans)):
+    /// the share of each view's sampled cells that this pose lays where the
+    /// other sensor's beams passed (not within one cell of its walls),
+    /// averaged over the two directions, in [0, 1]. On the real scan pairs
+    /// of `../shared/data` right poses have a median near 0.01, wrong ones
+    /// 0.1–0.2. `None` on images or without verification.
+    pub free_space: Option<Score>,
 }
 
 /// Most candidates an [`Estimate`] carries.
@@ -83,10 +97,21 @@ pub struct Thresholds {
     /// Largest translation searched by the profile test and the
     /// verification, as a fraction of the ρ range. Default ¼ (±64 px at 128²).
     pub max_shift_fraction: Score,
-    /// With verification: ambiguous unless the best candidate's alignment is
-    /// at least this multiple of the best one at least 5° away. Default 1.15
-    /// (chosen on the real scan pairs of `../shared/data`, README).
+    /// With verification: rotations whose best alignment (search sample)
+    /// cannot reach the best so far divided by this are not searched to the
+    /// end and not listed. Default 2 (on the real scan pairs of
+    /// `../shared/data` a wrong winner leads the true rotation by 1.15–1.49×,
+    /// p10–p90: they must stay in the race). Lower is cheaper.
     pub alignment_ratio: Score,
+    /// With verification: ambiguous (and a confidence below ½) unless the
+    /// winner's [`Candidate::support`] leads the best candidate at least 5°
+    /// away by this much. Default 0.08 (chosen on the real scan pairs of
+    /// `../shared/data`, where it flags about a quarter of all pairs;
+    /// `docs/confidence.md`).
+    pub decision_gap: Score,
+    /// With verification on scans: how much a free-space violation share
+    /// costs in [`Candidate::support`] (clamped to [0, 64]). Default 2.
+    pub free_space_weight: Score,
     /// With verification: [`Status::LowOverlap`] when the best pose puts less
     /// than this share of the second view within one cell of the reference.
     /// Default 0.30 (chosen on the real scan pairs, README).
@@ -100,7 +125,9 @@ impl Thresholds {
         direction_margin: Score::from_bits(6_554), // 0.10
         min_occupied: 8,
         max_shift_fraction: Score::from_bits(16_384), // 0.25
-        alignment_ratio: Score::from_bits(75_366),    // 1.15
+        alignment_ratio: Score::from_bits(131_072),   // 2
+        decision_gap: Score::from_bits(5_243),        // 0.08
+        free_space_weight: Score::from_bits(131_072), // 2
         min_overlap: Score::from_bits(19_661),        // 0.30
     };
 }
@@ -133,6 +160,11 @@ pub struct Estimate {
     /// Up to [`MAX_CANDIDATES`] rotations, strongest first; `alpha` is one of
     /// them (the first, unless a prior picked another).
     pub candidates: Vec<Candidate, MAX_CANDIDATES>,
+    /// With verification: the best candidate at least 5° from the winner
+    /// (whatever its lead: the decision's other side), so a caller can set
+    /// its own threshold on [`Candidate::support`]; `None` without
+    /// verification or when no other rotation was found.
+    pub runner_up: Option<Candidate>,
     /// With verification: the share of the second view's sampled cells that
     /// the chosen pose puts within one cell of the reference, in [0, 1];
     /// 0 without verification.
@@ -159,6 +191,7 @@ impl Estimate {
                 flipped: Score::ZERO,
             },
             candidates: Vec::new(),
+            runner_up: None,
             overlap: Score::ZERO,
             translation: None,
         }
@@ -193,6 +226,8 @@ pub(crate) fn push_pair(
             score: correlation * first_share,
             alignment: None,
             translation: None,
+            support: None,
+            free_space: None,
         },
         stronger,
     );
@@ -203,6 +238,8 @@ pub(crate) fn push_pair(
             score: correlation * second_share,
             alignment: None,
             translation: None,
+            support: None,
+            free_space: None,
         },
         stronger,
     );
@@ -252,28 +289,31 @@ pub(crate) fn pick_with_prior(candidates: &[Candidate], prior: Prior) -> Option<
     Some((nearest.alpha, inside().count() == 1))
 }
 
-/// Confidence with verification, in [0, 1]: the overlap, scaled linearly to
-/// 0 as the winner's lead over the rival (`1 − rival/best`) falls from twice
-/// the threshold's lead (`1 − 1/alignment_ratio`) to it, and as the overlap
-/// falls from twice `min_overlap` to it.
-pub(crate) fn verified_confidence(overlap: Score, lead: Score, t: &Thresholds) -> Score {
+/// Confidence with verification, in [0, 1]:
+/// `min(gap / (2·decision_gap), overlap / (2·min_overlap))`, each clamped to
+/// [0, 1], so that it is at least ½ exactly when the status rule finds the
+/// answer confident (the winner's support leads the runner-up's by
+/// `decision_gap` and its overlap reaches `min_overlap`). What a confidence
+/// means in wrong answers is measured on the real scan pairs in
+/// `docs/confidence.md`.
+pub(crate) fn verified_confidence(overlap: Score, gap: Score, t: &Thresholds) -> Score {
     let one = Score::ONE;
+    let half = Score::from_bits(1 << 15);
+    // `value / (2·threshold)`, below ½ exactly when `value < threshold`
+    // (the division's rounding cannot cross ½ either way).
     let ramp = |value: Score, threshold: Score| {
         if threshold <= Score::ZERO {
             one
-        } else {
+        } else if value < threshold {
             value
-                .saturating_sub(threshold)
-                .saturating_div(threshold)
-                .clamp(Score::ZERO, one)
+                .saturating_div(threshold.saturating_mul_int(2))
+                .clamp(Score::ZERO, half - Score::DELTA)
+        } else {
+            (half + (value - threshold).saturating_div(threshold.saturating_mul_int(2)))
+                .clamp(half, one)
         }
     };
-    let needed = if t.alignment_ratio > one {
-        one - one.saturating_div(t.alignment_ratio)
-    } else {
-        Score::ZERO
-    };
-    overlap.clamp(Score::ZERO, one) * ramp(lead, needed) * ramp(overlap, t.min_overlap)
+    ramp(gap, t.decision_gap).min(ramp(overlap, t.min_overlap))
 }
 
 #[cfg(test)]
@@ -334,6 +374,8 @@ mod tests {
             score: Score::ONE,
             alignment: None,
             translation: None,
+            support: None,
+            free_space: None,
         }
     }
 

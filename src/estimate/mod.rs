@@ -18,6 +18,7 @@ use crate::grid::Grid;
 use crate::pose::scale::ScaleRange;
 use crate::pose::Pose;
 use crate::reference::Reference;
+use crate::scan::FreeSpace;
 use crate::signature::{PeakKind, Signature};
 use crate::Score;
 use answer::{confidence, pick_with_prior, push_pair};
@@ -183,6 +184,37 @@ impl<
         grid: &Grid<W, H, RW>,
         prior: Option<Prior>,
     ) -> Estimate {
+        self.estimate_views(reference, grid, None, prior)
+    }
+
+    /// Rotation of `grid` relative to `reference` when both are laser scans
+    /// and `free` holds the cells their beams crossed
+    /// ([`Raster::free_space`](crate::Raster::free_space) of each scan, on
+    /// the same [`Raster`](crate::Raster) as its occupied cells). With the
+    /// verification on (the default), a candidate pose that lays one scan's
+    /// walls where the other sensor saw through loses support
+    /// ([`Candidate::free_space`], [`Thresholds::free_space_weight`]): this
+    /// is what tells a corridor seen from its two ends apart, or a large turn
+    /// from a small one in a symmetric building. Without verification,
+    /// exactly [`Self::estimate_with_prior`]. `prior` as there.
+    pub fn estimate_scans(
+        &mut self,
+        reference: &Reference<W, H, RW, HALF, RHO>,
+        grid: &Grid<W, H, RW>,
+        free: &FreeSpace<'_, W, H, RW>,
+        prior: Option<Prior>,
+    ) -> Estimate {
+        self.estimate_views(reference, grid, Some(free), prior)
+    }
+
+    /// [`Self::estimate_with_prior`], with the scans' free space if known.
+    fn estimate_views(
+        &mut self,
+        reference: &Reference<W, H, RW, HALF, RHO>,
+        grid: &Grid<W, H, RW>,
+        free: Option<&FreeSpace<'_, W, H, RW>>,
+        prior: Option<Prior>,
+    ) -> Estimate {
         let occupied = grid.occupied();
         if occupied < self.thresholds.min_occupied
             || reference.occupied() < self.thresholds.min_occupied
@@ -221,7 +253,7 @@ impl<
                 test,
                 hint,
             };
-            return self.verified(reference, grid, found, prior);
+            return self.verified(reference, grid, found, free, prior);
         }
 
         let axis_ambiguous = rival_score >= best_score.saturating_mul(self.thresholds.rival_ratio);
@@ -254,6 +286,7 @@ impl<
             rival: rival_score,
             half_turn: test,
             candidates,
+            runner_up: None,
             overlap: Score::ZERO,
             translation: if alpha == chosen_alpha {
                 translation

@@ -5,17 +5,19 @@
 //! whether a rival comes close or the pose explains too little of the view.
 
 use super::answer::{pick_with_prior, verified_confidence};
-use super::{Candidate, Estimate, Estimator, Prior, Status, MAX_CANDIDATES};
+use super::{Candidate, Estimate, Estimator, Prior, Status, Thresholds, MAX_CANDIDATES};
 use crate::angle::Angle;
 use crate::correlation::{circular_distance, Correlation, Peak};
 use crate::direction::HalfTurnTest;
 use crate::grid::Grid;
 use crate::math::sort_descending;
+use crate::pose::agreement::{agreement, Agreement};
 use crate::pose::icp::refine;
 use crate::pose::pyramid::Pyramid;
 use crate::pose::search::{Aligner, Placement};
 use crate::pose::Pose;
 use crate::reference::Reference;
+use crate::scan::FreeSpace;
 use crate::trig::sin_cos_q15;
 use crate::Score;
 use fixed::types::I16F16;
@@ -33,11 +35,15 @@ impl<
 {
     /// The verification by alignment (improved mode, on by default): both
     /// halves of the strongest correlation peaks are scored by their best
-    /// translation ([`Aligner::search`], exact over ±`max_shift`), a local
-    /// angle search runs around the strongest, ICP refines the winner, and
-    /// the status says whether a rival at least 5° away comes close
-    /// ([`Thresholds::alignment_ratio`]) or the pose explains too little of
-    /// the view ([`Thresholds::min_overlap`]).
+    /// translation ([`Aligner::search`], exact over ±`max_shift`), and their
+    /// quarter turns too when the best aligns poorly; a local angle search
+    /// runs around the strongest; every seed is then judged both ways on a
+    /// large sample, with the views' free space when the estimate is on
+    /// scans ([`agreement`]); the best supported wins and ICP refines it.
+    /// The status and the confidence follow from the winner's lead in
+    /// support over the best seed at least 5° away
+    /// ([`Thresholds::decision_gap`]) and from its overlap
+    /// ([`Thresholds::min_overlap`]).
     ///
     /// Not inlined: its frame (about 2 KiB) stays off the stack of estimates
     /// without verification.
@@ -47,6 +53,7 @@ impl<
         reference: &Reference<W, H, RW, HALF, RHO>,
         grid: &Grid<W, H, RW>,
         found: Unverified<'_>,
+        free: Option<&FreeSpace<'_, W, H, RW>>,
         prior: Option<Prior>,
     ) -> Estimate {
         let Unverified {
@@ -55,6 +62,7 @@ impl<
             test,
             hint,
         } = found;
+        let t = self.thresholds;
         // Built here, on the stack, so that estimates without verification
         // do not carry it (`4 · PW` bytes: 752 at 128²).
         let mut pyramid = Pyramid::<W, H, PW>::new();
@@ -65,9 +73,22 @@ impl<
         let scale_q16 = hint.map_or(1 << 16, |(_, t)| t.scale.to_bits().max(1 << 15) as u32);
         let inv_scale_q16 = ((1u64 << 32) / u64::from(scale_q16)) as u32;
         let separation = Angle::from_steps_q16(((N / 72).max(2) as i64) << 16, N);
-        let mut seeds: Vec<(Placement, Score), SEEDS> = Vec::new();
+        let mut seeds: Vec<Seed, SEEDS> = Vec::new();
         let (winner, points, near, alpha, u_q8) = {
-            let mut aligner = Aligner::new(reference.grid(), &pyramid, grid, inv_scale_q16);
+            // A point on the reference's free space costs what the support
+            // charges: `free_space_weight` in alignment units, twice that in
+            // points (a point scores at most 2).
+            let penalty = (t.free_space_weight.clamp(Score::ZERO, Score::from_num(64)) * 2)
+                .to_num::<u32>()
+                .max(1);
+            let free_penalty = free.map(|f| (f.reference, penalty));
+            let mut aligner = Aligner::new(
+                reference.grid(),
+                &pyramid,
+                grid,
+                free_penalty,
+                inv_scale_q16,
+            );
             // 1. Both halves of the strongest distinct peaks, each with the
             //    best translation over the whole window.
             let mut peaks: Vec<&Peak, VERIFY_PEAKS> = Vec::new();
@@ -90,85 +111,111 @@ impl<
                     _ => [alpha, alpha + Angle::HALF_TURN],
                 };
                 for half in halves {
-                    aligner.rotate::<N>(half, (0, 0));
-                    // A seed that cannot reach the best so far divided by the
-                    // ambiguity ratio cannot change the decision: its search
-                    // stops there (and it is not a candidate).
-                    let floor = seeds.iter().map(|s| s.0.score).max().map_or(0, |best| {
-                        irrelevant_below(best, self.thresholds.alignment_ratio)
-                    });
-                    let floor = match hint {
-                        Some((h, t)) if h == half => {
-                            floor.max(aligner.score(hint_shift::<N>(h, &t)).saturating_sub(1))
-                        }
-                        _ => floor,
-                    };
-                    if let Some((shift, s)) = aligner.search((0, 0), max_shift, floor) {
-                        let _ = seeds.push((
-                            Placement {
-                                alpha: half,
-                                shift,
-                                score: s,
-                            },
-                            score,
-                        ));
-                    }
+                    let hinted = hint.filter(|(h, _)| *h == half).map(|(_, t)| t);
+                    seed_at::<W, H, RW, N, PW>(
+                        &mut aligner,
+                        &mut seeds,
+                        half,
+                        score,
+                        hinted.as_ref(),
+                        max_shift,
+                        t.alignment_ratio,
+                    );
+                }
+            }
+            // 1b. A poor best alignment may be the wrong axis of a
+            //     rectangular scene: its quarter turns are seeds too.
+            let strongest = seeds.iter().max_by_key(|s| s.placement.score).copied();
+            if let Some(best) = strongest.filter(|s| s.placement.score < aligner.points()) {
+                for quarter in [Angle::QUARTER_TURN, Angle::HALF_TURN + Angle::QUARTER_TURN] {
+                    seed_at::<W, H, RW, N, PW>(
+                        &mut aligner,
+                        &mut seeds,
+                        best.placement.alpha + quarter,
+                        Score::ZERO,
+                        None,
+                        max_shift,
+                        t.alignment_ratio,
+                    );
                 }
             }
             if seeds.is_empty() {
                 return Estimate::no_structure();
             }
-            sort_descending(&mut seeds, |s| s.0.score);
+            sort_descending(&mut seeds, |s| s.placement.score);
             // 2. Local angle search around the strongest seeds: ±10° in
             //    strides of ~2°, then halving strides down to one θ step.
-            let strongest = seeds.first().map_or(0, |s| s.0.score);
-            for (seed, _) in seeds.iter_mut().take(ANGLE_SEARCH_SEEDS) {
-                if seed.score * 2 < strongest {
+            let strongest = seeds.first().map_or(0, |s| s.placement.score);
+            for seed in seeds.iter_mut().take(ANGLE_SEARCH_SEEDS) {
+                if seed.placement.score * 2 < strongest {
                     continue;
                 }
-                *seed = angle_search::<W, H, RW, N, PW>(&mut aligner, seed);
+                seed.placement = angle_search::<W, H, RW, N, PW>(&mut aligner, &seed.placement);
             }
-            sort_descending(&mut seeds, |s| s.0.score);
-            let Some(&(winner, _)) = seeds.first() else {
+            // 3. Every seed judged both ways on the large sample.
+            for seed in seeds.iter_mut() {
+                let p = seed.placement;
+                seed.agreement = agreement::<W, H, RW, N>(
+                    reference.grid(),
+                    grid,
+                    free,
+                    p.alpha,
+                    shift_q8(p.shift),
+                    scale_q16,
+                );
+            }
+            sort_descending(&mut seeds, |s| support_key(s.support(&t)));
+            let Some(winner) = seeds.first() else {
                 return Estimate::no_structure();
             };
-            // 3. ICP below one cell and one θ step; kept unless it loses
+            // 4. ICP below one cell and one θ step; kept unless it loses
             //    alignment (e.g. drawn onto a neighbouring wall).
             let (alpha, u_q8) =
-                refine::<W, H, RW, N>(reference.grid(), grid, &winner, inv_scale_q16);
+                refine::<W, H, RW, N>(reference.grid(), grid, &winner.placement, inv_scale_q16);
             aligner.rotate::<N>(alpha, u_q8);
             let refined = aligner.score((0, 0));
-            let (alpha, u_q8, near) = if 16 * refined >= 15 * winner.score {
+            // The decision stays with the seeds' agreements: each judged at
+            // its search pose, none favoured by a refinement the others did
+            // not get.
+            let (alpha, u_q8, near) = if 16 * refined >= 15 * winner.placement.score {
                 (alpha, u_q8, aligner.near((0, 0)))
             } else {
-                aligner.rotate::<N>(winner.alpha, (0, 0));
-                let u = (
-                    i64::from(winner.shift.0) << 8,
-                    -(i64::from(winner.shift.1) << 8),
-                );
-                (winner.alpha, u, aligner.near(winner.shift))
+                aligner.rotate::<N>(winner.placement.alpha, (0, 0));
+                let p = winner.placement;
+                (p.alpha, shift_q8(p.shift), aligner.near(p.shift))
             };
-            (winner, aligner.points(), near, alpha, u_q8)
+            (*winner, aligner.points(), near, alpha, u_q8)
         };
         let max_score = (2 * points).max(1);
         let alignment =
             |score: u32| Score::from_bits(((u64::from(score) << 16) / u64::from(max_score)) as i32);
         let overlap = Score::from_bits(((u64::from(near) << 16) / u64::from(points.max(1))) as i32);
-        // The strongest seed at least 5° from the winner.
+        let support = winner.support(&t);
+        // The best supported seed at least 5° from the winner.
         let rival = seeds
             .iter()
-            .map(|s| s.0)
-            .filter(|p| p.alpha.distance(winner.alpha) >= separation)
-            .max_by_key(|p| p.score);
-        let rival_score = rival.map_or(0, |p| p.score);
-        let t = self.thresholds;
-        let clear = Score::from_num(winner.score)
-            >= t.alignment_ratio.saturating_mul_int(rival_score as i32);
+            .skip(1)
+            .filter(|s| s.placement.alpha.distance(winner.placement.alpha) >= separation)
+            .max_by_key(|s| support_key(s.support(&t)))
+            .copied();
+        // Two rotations that both lay every sampled point on an occupied
+        // cell (dense or periodic inputs) cannot be told apart: their
+        // translations are ties of the search, and the large sample would
+        // only judge which tie it happened to pick.
+        let saturated = |s: &Seed| s.placement.score >= 2 * points;
+        let gap = match rival {
+            Some(r) if saturated(&winner) && saturated(&r) => Score::ZERO,
+            Some(r) => support - r.support(&t),
+            None => support,
+        };
+        let confidence = verified_confidence(overlap, gap, &t);
         let status = if overlap < t.min_overlap {
             Status::LowOverlap
-        } else if !clear {
+        } else if gap < t.decision_gap {
             let near_half_turn = rival.is_some_and(|r| {
-                r.alpha.distance(winner.alpha + Angle::HALF_TURN)
+                r.placement
+                    .alpha
+                    .distance(winner.placement.alpha + Angle::HALF_TURN)
                     < Angle::from_steps_q16(((N / 8) as i64) << 16, N)
             });
             if near_half_turn {
@@ -179,36 +226,33 @@ impl<
         } else {
             Status::Confident
         };
+        let candidate = |seed: &Seed, chosen: bool| {
+            let (candidate_alpha, u) = if chosen {
+                (alpha, u_q8)
+            } else {
+                (seed.placement.alpha, shift_q8(seed.placement.shift))
+            };
+            let tr = verified_translation::<N>(candidate_alpha, u, scale_q16, None);
+            Candidate {
+                alpha: candidate_alpha,
+                score: seed.correlation.clamp(Score::ZERO, Score::ONE),
+                alignment: Some(alignment(seed.placement.score)),
+                translation: Some((tr.x, tr.y)),
+                support: Some(seed.support(&t)),
+                free_space: free.map(|_| seed.agreement.violation()),
+            }
+        };
         let mut candidates: Vec<Candidate, MAX_CANDIDATES> = Vec::new();
         let mut listed: Vec<Angle, MAX_CANDIDATES> = Vec::new();
-        for (placement, correlation) in &seeds {
-            let candidate_alpha = if placement == &winner {
-                alpha
-            } else {
-                placement.alpha
-            };
+        for (i, seed) in seeds.iter().enumerate() {
             // Duplicates are judged on the seeds' rotations (ICP may move the
             // winner towards a rival it was compared with).
             let duplicate = listed
                 .iter()
-                .any(|a: &Angle| a.distance(placement.alpha) < separation);
+                .any(|a: &Angle| a.distance(seed.placement.alpha) < separation);
             if !duplicate && !candidates.is_full() {
-                let u = if placement == &winner {
-                    u_q8
-                } else {
-                    (
-                        i64::from(placement.shift.0) << 8,
-                        -(i64::from(placement.shift.1) << 8),
-                    )
-                };
-                let t = verified_translation::<N>(candidate_alpha, u, scale_q16, None);
-                let _ = listed.push(placement.alpha);
-                let _ = candidates.push(Candidate {
-                    alpha: candidate_alpha,
-                    score: (*correlation).clamp(Score::ZERO, Score::ONE),
-                    alignment: Some(alignment(placement.score)),
-                    translation: Some((t.x, t.y)),
-                });
+                let _ = listed.push(seed.placement.alpha);
+                let _ = candidates.push(candidate(seed, i == 0));
             }
         }
         let mut chosen = alpha;
@@ -243,27 +287,91 @@ impl<
         } else {
             None
         };
-        let best = Score::from_num(winner.score);
-        let separation_share = if winner.score == 0 {
-            Score::ZERO
-        } else {
-            (best - Score::from_num(rival_score))
-                .checked_div(best)
-                .unwrap_or(Score::ZERO)
-        };
         Estimate {
             alpha: chosen,
             status,
-            confidence: verified_confidence(overlap, separation_share, &t),
+            confidence,
             correlation: best_score,
             rival: correlation
                 .rival((N / 72).max(2))
                 .map_or(Score::ZERO, |p| correlation.score(p)),
             half_turn: test,
             candidates,
+            runner_up: rival.map(|r| candidate(&r, false)),
             overlap,
             translation,
         }
+    }
+}
+
+/// A candidate pose of the verification: its placement (best translation,
+/// forward alignment on the search sample), the correlation of its peak (0
+/// for the quarter turns) and its [`Agreement`] (after step 3).
+#[derive(Clone, Copy, Debug)]
+struct Seed {
+    placement: Placement,
+    correlation: Score,
+    agreement: Agreement,
+}
+
+impl Seed {
+    /// [`Candidate::support`].
+    fn support(&self, t: &Thresholds) -> Score {
+        self.agreement.support(t.free_space_weight)
+    }
+}
+
+/// Sort key of a support (monotone in it; supports are at least −80).
+fn support_key(support: Score) -> u32 {
+    (i64::from(support.to_bits()) + (128 << 16)).clamp(0, i64::from(u32::MAX)) as u32
+}
+
+/// `u` in centred Q8 cells of a shift in reference cells `(Δcol, Δrow)`.
+fn shift_q8(shift: (i32, i32)) -> (i64, i64) {
+    (i64::from(shift.0) << 8, -(i64::from(shift.1) << 8))
+}
+
+/// Adds the seed of rotation `alpha` with its best translation, unless it
+/// cannot reach the best so far divided by `ratio` (then it is no
+/// candidate) or is already a seed within one θ step. `hinted`: the pose
+/// the profile test fitted for this rotation, a floor for the search.
+fn seed_at<const W: usize, const H: usize, const RW: usize, const N: usize, const PW: usize>(
+    aligner: &mut Aligner<'_, W, H, RW, PW>,
+    seeds: &mut Vec<Seed, SEEDS>,
+    alpha: Angle,
+    correlation: Score,
+    hinted: Option<&Pose>,
+    max_shift: i32,
+    ratio: Score,
+) {
+    let step = Angle::from_steps_q16(1 << 16, N);
+    if seeds.is_full()
+        || seeds
+            .iter()
+            .any(|s| s.placement.alpha.distance(alpha) < step)
+    {
+        return;
+    }
+    aligner.rotate::<N>(alpha, (0, 0));
+    let floor = seeds
+        .iter()
+        .map(|s| s.placement.score)
+        .max()
+        .map_or(0, |best| irrelevant_below(best, ratio));
+    let floor = match hinted {
+        Some(t) => floor.max(aligner.score(hint_shift::<N>(alpha, t)).saturating_sub(1)),
+        None => floor,
+    };
+    if let Some((shift, score)) = aligner.search((0, 0), max_shift, floor) {
+        let _ = seeds.push(Seed {
+            placement: Placement {
+                alpha,
+                shift,
+                score,
+            },
+            correlation,
+            agreement: Agreement::default(),
+        });
     }
 }
 
@@ -281,11 +389,12 @@ pub(super) struct Unverified<'c> {
 
 /// Correlation peaks whose two halves the verification scores.
 const VERIFY_PEAKS: usize = 3;
-/// Seeds of the verification: both halves of each peak.
-const SEEDS: usize = 2 * VERIFY_PEAKS;
+/// Seeds of the verification: both halves of each peak, and the quarter
+/// turns of the strongest.
+const SEEDS: usize = 2 * VERIFY_PEAKS + 2;
 /// Seeds that get the local angle search (those at least half as aligned as
-/// the best).
-const ANGLE_SEARCH_SEEDS: usize = 3;
+/// the best): all, so that the decision compares poses found alike.
+const ANGLE_SEARCH_SEEDS: usize = SEEDS;
 /// Translation window (± cells) of each rotation of the angle search, around
 /// the shift predicted from the seed.
 const LOCAL_RADIUS: i32 = 3;

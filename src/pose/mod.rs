@@ -6,8 +6,11 @@
 //! * [`scale`]: the bounded 1-D scale search;
 //! * [`pyramid`]: the OR-pooled reference pyramid;
 //! * [`search`]: the alignment score and the exact best translation;
-//! * [`icp`]: the sub-cell, sub-step refinement.
+//! * [`icp`]: the sub-cell, sub-step refinement;
+//! * [`agreement`]: a pose judged both ways on a large sample, with the
+//!   views' free space: the decision between candidates.
 
+pub(crate) mod agreement;
 pub(crate) mod icp;
 pub(crate) mod pyramid;
 pub(crate) mod scale;

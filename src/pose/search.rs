@@ -46,6 +46,9 @@ pub(crate) struct Aligner<'a, const W: usize, const H: usize, const RW: usize, c
     reference: &'a Grid<W, H, RW>,
     pyramid: &'a Pyramid<W, H, PW>,
     view: &'a Grid<W, H, RW>,
+    /// The reference's free space (scans) and what a point scoring 0 on it
+    /// costs, score units.
+    free: Option<(&'a Grid<W, H, RW>, u32)>,
     /// Centroid of the sampled view points, centred coordinates × 2.
     centroid_q1: (i32, i32),
     /// `1/s` (Q16): view points are shrunk by it before the pose.
@@ -60,10 +63,16 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
 {
     /// An aligner of `view` against `reference`, whose `pyramid` is built;
     /// the view is at scale `s` = 2¹⁶ / `inv_scale_q16` of the reference.
+    /// With `free` (the reference's free space and a penalty), a point that
+    /// scores 0 on a free cell costs the penalty: the score of a pose is
+    /// then `max(0, Σ scores − penalty · violations)`, and the search finds
+    /// the best translation by that score (the bounds, which ignore the
+    /// penalty, stay upper bounds).
     pub(crate) fn new(
         reference: &'a Grid<W, H, RW>,
         pyramid: &'a Pyramid<W, H, PW>,
         view: &'a Grid<W, H, RW>,
+        free: Option<(&'a Grid<W, H, RW>, u32)>,
         inv_scale_q16: u32,
     ) -> Self {
         let (mut n, mut sx, mut sy) = (0i64, 0i64, 0i64);
@@ -78,6 +87,7 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
             reference,
             pyramid,
             view,
+            free,
             centroid_q1: ((sx / n) as i32, (sy / n) as i32),
             inv_scale_q16: i64::from(inv_scale_q16),
             cells: [(0, 0); ALIGN_POINTS],
@@ -133,23 +143,28 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
 
     /// [`Self::score`] if it exceeds `floor`, else 0 (stops as soon as the
     /// points left cannot lift it above `floor`). With `floor` 0 it is the
-    /// score itself.
+    /// score itself (less the free-space penalties, at least 0).
     fn score_above(&self, shift: (i32, i32), floor: u32) -> u32 {
         let mut reachable = 2 * self.points();
-        let mut total = 0;
+        let mut total = 0u32;
+        let mut penalties = 0u32;
         for &(c, r) in self.turned() {
-            let s = point_score(
-                self.reference,
-                i32::from(c) + shift.0,
-                i32::from(r) + shift.1,
-            );
+            let (c, r) = (i32::from(c) + shift.0, i32::from(r) + shift.1);
+            let s = point_score(self.reference, c, r);
             total += s;
             reachable -= 2 - s;
-            if floor > 0 && reachable <= floor {
+            if s == 0 {
+                if let Some((free, penalty)) = self.free {
+                    if c >= 0 && r >= 0 && free.get(c as usize, r as usize) {
+                        penalties = penalties.saturating_add(penalty);
+                    }
+                }
+            }
+            if floor > 0 && reachable.saturating_sub(penalties) <= floor {
                 return 0;
             }
         }
-        total
+        total.saturating_sub(penalties)
     }
 
     /// Points within one cell of the reference when shifted by `(dc, dr)`.
@@ -307,7 +322,7 @@ const TOP_BLOCKS: usize = 64;
 const STACK: usize = 48;
 
 /// Score of reference cell `(c, r)`: 2 occupied, 1 a neighbour occupied, else 0.
-fn point_score<const W: usize, const H: usize, const RW: usize>(
+pub(crate) fn point_score<const W: usize, const H: usize, const RW: usize>(
     grid: &Grid<W, H, RW>,
     c: i32,
     r: i32,

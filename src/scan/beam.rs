@@ -188,6 +188,15 @@ impl ScanBeams {
         self.end_at(binary_angle(angle), range)
     }
 
+    /// The sensor's position (Q16 cells, centred, y up) when it is within
+    /// ±4096 cells of the robot and the geometry is finite; `None` otherwise.
+    pub(crate) const fn near_origin(&self) -> Option<(i32, i32)> {
+        match self.origin {
+            Origin::Near { x, y } if self.finite => Some((x, y)),
+            _ => None,
+        }
+    }
+
     /// Direction of beam 0 and the step between beams, 2⁶⁴ = one turn.
     pub(crate) const fn angles(&self) -> (u64, u64) {
         (self.start, self.step)

@@ -150,6 +150,14 @@ pub enum Format {
     Carmen,
     /// ROS 2 bag in MCAP.
     Mcap,
+    /// Raw LDRobot LD06 / LD19 / STL-19P capture: one scan per revolution.
+    Ld06,
+    /// Raw Slamtec RPLIDAR capture (standard scan): one scan per revolution.
+    Rplidar,
+    /// Raw YDLIDAR X2 / X4 capture: one scan per revolution.
+    Ydlidar,
+    /// Raw Neato XV-11 / LDS02RR capture: one scan per revolution.
+    Xv11,
 }
 
 /// Which scan pairs are estimated.
@@ -176,8 +184,8 @@ pub enum PriorArg {
 /// `log FILE`.
 #[derive(Clone, Debug, Args)]
 pub struct LogArgs {
-    /// The recording: a CARMEN log (`.gz` read directly) or a ROS 2 bag
-    /// (`.mcap`).
+    /// The recording: a CARMEN log (`.gz` read directly), a ROS 2 bag
+    /// (`.mcap`), or a raw lidar capture (`--format ld06|rplidar|ydlidar|xv11`).
     pub file: PathBuf,
     /// Input format.
     #[arg(long, value_enum, default_value_t = Format::Auto)]
@@ -513,6 +521,19 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
             };
             let events = CarmenReader::new(input, geometry).map(Ok);
             stream(&mut run, events)?
+        }
+        Format::Ld06 | Format::Rplidar | Format::Ydlidar | Format::Xv11 => {
+            let protocol = match format {
+                Format::Ld06 => crate::wire::Protocol::Ld06,
+                Format::Rplidar => crate::wire::Protocol::Rplidar,
+                Format::Ydlidar => crate::wire::Protocol::Ydlidar,
+                _ => crate::wire::Protocol::Xv11,
+            };
+            let offset = laser_offset.unwrap_or([0.0; 3]);
+            let mut reader = crate::wire::WireReader::new(input, protocol, args.max_range, offset);
+            let scans = stream(&mut run, reader.by_ref().map(Ok))?;
+            eprintln!("hough-heading: {file}: {}", reader.report());
+            scans
         }
         Format::Mcap => {
             let (topic, odom_topic) = choose_topics(args, &file, input)?;

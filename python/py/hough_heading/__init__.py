@@ -98,8 +98,14 @@ class Thresholds:
       the α vs α + 180° margin is below it;
     * ``max_shift`` (0–1, default 0.25): largest translation searched, as a
       fraction of the ρ range;
-    * ``alignment_ratio`` (1–4, default 1.15): ambiguous unless the best
-      candidate's alignment reaches this multiple of the best one ≥ 5° away;
+    * ``alignment_ratio`` (1–4, default 2): rotations whose best alignment
+      cannot reach the best one's divided by this are not searched to the
+      end nor listed;
+    * ``decision_gap`` (0–1, default 0.08): ambiguous unless the winner's
+      support leads the runner-up's (≥ 5° away) by this much (``confident``
+      exactly when ``confidence`` ≥ 0.5);
+    * ``free_space_weight`` (0–64, default 2): on scans, what a share of
+      points laid where the other sensor saw through costs in the support;
     * ``min_overlap`` (0–1, default 0.30): ``low_overlap`` below this share of
       the second view explained by the pose.
     """
@@ -108,6 +114,8 @@ class Thresholds:
     direction_margin: Optional[float] = None
     max_shift: Optional[float] = None
     alignment_ratio: Optional[float] = None
+    decision_gap: Optional[float] = None
+    free_space_weight: Optional[float] = None
     min_overlap: Optional[float] = None
 
 

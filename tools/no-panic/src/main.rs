@@ -1,4 +1,5 @@
-//! Link-time panic-freedom check of `hough-heading` (issue 7).
+//! Link-time panic-freedom check of `hough-heading` (issue 7) and of the
+//! lidar drivers `hough-lidar` (issue 25: `entry_lidar*`).
 //!
 //! This bare-metal binary calls every public entry point of the library with
 //! inputs the optimiser cannot see (`core::hint::black_box`), for four
@@ -33,7 +34,10 @@
 // unsafe code, this checker does not ship.
 #![allow(unsafe_code)]
 
+use core::future::Future;
 use core::hint::black_box;
+use core::pin::pin;
+use core::task::{Context, Poll, Waker};
 use hough_heading::{
     config::max_votes_per_bin, config::pyramid_levels, config::pyramid_words,
     config::recommended_n_theta, config::rho_bins, config::row_words, config::ALIGN_POINTS,
@@ -42,8 +46,12 @@ use hough_heading::{
     stages::vote_column_split, stages::Accumulator, stages::Column, stages::ColumnShift,
     stages::ColumnStats, stages::Correlation, stages::Peak, stages::PeakKind, stages::ScanBeams,
     stages::Shift, stages::Signature, stages::REFERENCE_FORMAT, stages::RUNNERS_UP, Angle, Error,
-    Estimator, Grid, Mode, Prior, Raster, Reference, ScaleRange, Scan, ScanStats, Score,
+    Estimator, FreeSpace, Grid, Mode, Prior, Raster, Reference, ScaleRange, Scan, ScanStats, Score,
     SensorOffset, Thresholds,
+};
+use hough_lidar::ydlidar::YdlidarLayout;
+use hough_lidar::{
+    Assembler, Layout, Ld06, Lidar, Parser, Point, Revolution, Rplidar, Xv11, Ydlidar,
 };
 
 /// Any value of `T`, as far as the optimiser knows.
@@ -75,6 +83,8 @@ fn opaque_thresholds() -> Thresholds {
         max_shift_fraction: Score::from_bits(opaque(0)),
         alignment_ratio: Score::from_bits(opaque(0)),
         min_overlap: Score::from_bits(opaque(0)),
+        decision_gap: Score::from_bits(opaque(0)),
+        free_space_weight: Score::from_bits(opaque(0)),
     }
 }
 
@@ -155,6 +165,14 @@ fn entry_estimator<
         .with_thresholds(opaque(Thresholds::DEFAULT));
     opaque(verified.estimate(&reference, g2));
     opaque(verified.estimate_with_prior(&reference, g2, opaque(Some(prior))));
+    // Scans: the free space of both views (any grids here).
+    let free = FreeSpace {
+        reference: g2,
+        current: g1,
+    };
+    let on_scans = verified.estimate_scans(&reference, g2, &free, opaque(Some(prior)));
+    opaque(on_scans.runner_up);
+    opaque(e.estimate_scans(&reference, g2, &free, opaque(None)));
     let mut plain = verified.with_verification(false);
     opaque(plain.verification());
     opaque(plain.estimate(&reference, g2));
@@ -360,6 +378,7 @@ fn entry_scan<const W: usize, const H: usize, const RW: usize>(grid: &mut Grid<W
         let raster = raster.connect(opaque(0.0)).clip_to_disc(opaque(false));
         opaque(raster.cell());
         let stats: ScanStats = raster.rasterize(&scan, grid);
+        opaque(raster.free_space(&scan, grid));
         let beams = ScanBeams::new(&scan, &raster);
         opaque(beams.end(opaque(0), opaque(0.0)));
         opaque(stats.dropped());
@@ -403,6 +422,101 @@ macro_rules! configuration {
     };
 }
 
+/// One parser of `hough-lidar` and an assembler behind it: every public
+/// method of `Parser`, `Packet`, `Lidar`, `Assembler`, `Revolution` and the
+/// blocking and async drivers, on opaque bytes.
+#[inline(never)]
+fn entry_lidar<L: Layout + Clone, const CAP: usize>(parser: Parser<L, CAP>, bytes: &[u8]) {
+    let mut p = opaque(parser.clone());
+    for &b in bytes {
+        if let Some(packet) = p.push(opaque(b)) {
+            opaque((
+                packet.bytes(),
+                packet.len(),
+                packet.is_empty(),
+                packet.point(opaque(3)),
+            ));
+            for point in packet.points() {
+                opaque((point.range_m(), point.degrees()));
+            }
+        }
+        p.append(opaque(b));
+        while let Some(packet) = p.poll() {
+            opaque(packet.len());
+        }
+        opaque(p.current().map(|c| c.len()));
+    }
+    opaque((p.counters().dropped_packets(), p.buffered(), p.layout()));
+    if opaque(false) {
+        p.clear();
+    }
+    let mut lidar: Lidar<L, CAP, 360> = Lidar::new(p, opaque(12.0));
+    for &b in bytes {
+        if lidar.push(opaque(b)) {
+            if let Some(r) = lidar.revolution() {
+                opaque(r.scan(opaque(SensorOffset::default())));
+                opaque(Revolution::<'_, 360>::angle_rad(opaque(7)));
+            }
+        }
+    }
+    while lidar.step() {
+        opaque(lidar.revolution().map(|r| r.stats));
+    }
+    opaque((lidar.parser().counters(), lidar.assembler().counters()));
+    let mut assembler: Assembler<720> = Assembler::new(L::DIRECTION, opaque(-1.0));
+    let point = Point {
+        angle: opaque(0),
+        range_q2: opaque(0),
+        quality: opaque(0),
+    };
+    if assembler.add(point) {
+        opaque(assembler.revolution().map(|r| r.index));
+    }
+    opaque(assembler.max_range());
+    assembler.restart();
+    let mut driver = hough_lidar::Driver::new(
+        opaque(bytes),
+        Lidar::<L, CAP, 360>::new(parser.clone(), 8.0),
+    );
+    while let Ok(Some(r)) = driver.next_revolution() {
+        opaque(r.stats);
+    }
+    opaque(driver.lidar().parser().counters());
+    opaque(driver.into_reader());
+    let mut driver =
+        hough_lidar::Driver::new(opaque(bytes), Lidar::<L, CAP, 360>::new(parser, 8.0));
+    let mut cx = Context::from_waker(Waker::noop());
+    let mut future = pin!(driver.next_revolution_async());
+    opaque(matches!(
+        future.as_mut().poll(&mut cx),
+        Poll::Ready(Ok(Some(_)))
+    ));
+}
+
+/// The protocols' free functions.
+#[inline(never)]
+fn entry_lidar_helpers(bytes: &[u8]) {
+    opaque((
+        hough_lidar::ld06::crc8(bytes),
+        hough_lidar::ld06::speed_deg_per_s(bytes),
+        hough_lidar::ld06::timestamp_ms(bytes),
+    ));
+    opaque((
+        hough_lidar::ydlidar::check_code(bytes),
+        hough_lidar::ydlidar::correction_units(opaque(0)),
+        hough_lidar::ydlidar::starts_revolution(bytes),
+        hough_lidar::rplidar::starts_revolution(bytes),
+        hough_lidar::xv11::checksum(bytes),
+        hough_lidar::xv11::rpm(bytes),
+    ));
+    let layout = if opaque(false) {
+        YdlidarLayout::uncorrected()
+    } else {
+        YdlidarLayout::triangulation()
+    };
+    opaque(layout.corrects());
+}
+
 /// The entry point of the binary: calls every check once.
 #[no_mangle]
 pub extern "C" fn _start() -> ! {
@@ -426,6 +540,14 @@ pub extern "C" fn _start() -> ! {
     entry_translation();
     entry_angle();
     entry_config();
+    let lidar_bytes: &[u8] = opaque(&BYTES[..600]);
+    entry_lidar(Ld06::new(), lidar_bytes);
+    entry_lidar(Rplidar::new(), lidar_bytes);
+    entry_lidar(
+        Ydlidar::with_layout(opaque(YdlidarLayout::default())),
+        lidar_bytes,
+    );
+    entry_lidar_helpers(lidar_bytes);
     #[cfg(feature = "negative-control")]
     entry_negative_control();
     loop {

@@ -1,0 +1,209 @@
+//! `hough-heading wire` and `log --format ld06|rplidar|ydlidar|xv11` on the raw
+//! captures of `lidar/tests/data/` (written from the Seattle scans of
+//! `cli/data/logs/seattle-excerpt.log` by `tools/lidar_streams.py`, an
+//! encoder independent of the parsers).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+fn capture(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../lidar/tests/data")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+fn tool(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hough-heading"))
+        .args(args)
+        .output()
+        .expect("the tool runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn json_lines(o: &Output) -> Vec<Value> {
+    String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("a JSON line"))
+        .collect()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("wire-tests");
+    std::fs::create_dir_all(&dir).expect("scratch dir");
+    dir.join(name)
+}
+
+/// The estimate of a line, without where its scans come from.
+fn estimate(v: &Value) -> serde_json::Map<String, Value> {
+    let mut m = v.as_object().expect("an object").clone();
+    // The CARMEN log carries a clock (the revolution index) and a robot
+    // pose (0 0 0: unknown) that the raw capture has not.
+    for k in ["t1", "t2", "odom"] {
+        m.remove(k);
+    }
+    m
+}
+
+const QUICK: [&str; 3] = ["--size", "128", "-q"];
+
+#[test]
+fn log_reads_captures_one_scan_per_revolution() {
+    for (protocol, revolutions) in [("ld06", 20), ("rplidar", 6), ("ydlidar", 6), ("xv11", 6)] {
+        let file = capture(&format!("{protocol}.bin"));
+        let out = tool(&[&["log", &file, "--format", protocol][..], &QUICK].concat());
+        assert!(out.status.success(), "{protocol}: {}", stderr(&out));
+        let lines = json_lines(&out);
+        assert_eq!(lines.len(), revolutions - 1, "{protocol}");
+        for (i, l) in lines.iter().enumerate() {
+            assert_eq!(l["scan1"], i);
+            assert_eq!(l["scan2"], i + 1);
+            assert_ne!(l["status"], "error");
+        }
+        let err = stderr(&out);
+        assert!(
+            err.contains(&format!(
+                "{revolutions} revolutions; dropped: 0 bad checksum, 0 bad framing, \
+                 0 out of range, 0 bytes skipped"
+            )),
+            "{protocol}: {err}"
+        );
+    }
+}
+
+#[test]
+fn capture_estimates_agree_with_the_source_log() {
+    // The LD06 capture carries the 20 scans of the CARMEN excerpt (ranges
+    // rounded to the millimetre, beams on a full circle from 0° instead of
+    // a half circle from −90°): the heading changes agree.
+    let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/logs/seattle-excerpt.log");
+    let a = json_lines(&tool(
+        &[&["log", &source.display().to_string()][..], &QUICK].concat(),
+    ));
+    let b = json_lines(&tool(
+        &[
+            &["log", &capture("ld06.bin"), "--format", "ld06"][..],
+            &QUICK,
+        ]
+        .concat(),
+    ));
+    assert_eq!(a.len(), b.len());
+    let close = a
+        .iter()
+        .zip(&b)
+        .filter(|(x, y)| {
+            let d = x["dtheta_deg"].as_f64().unwrap() - y["dtheta_deg"].as_f64().unwrap();
+            d.abs() < 0.5
+        })
+        .count();
+    assert!(
+        close + 1 >= a.len(),
+        "{close} of {} pairs within 0.5°",
+        a.len()
+    );
+}
+
+#[test]
+fn wire_writes_a_carmen_log_that_log_reads_back_bit_for_bit() {
+    for protocol in ["ld06", "rplidar", "ydlidar", "xv11"] {
+        let file = capture(&format!("{protocol}.bin"));
+        let log = scratch(&format!("{protocol}.log"));
+        let log_name = log.display().to_string();
+        let out = tool(&["wire", "--protocol", protocol, &file, "--out", &log_name]);
+        assert!(out.status.success(), "{protocol}: {}", stderr(&out));
+        assert!(stderr(&out).contains("0 bad checksum"), "{}", stderr(&out));
+        let text = std::fs::read_to_string(&log).unwrap();
+        let lines: Vec<&str> = text
+            .lines()
+            .filter(|l| l.starts_with("ROBOTLASER1"))
+            .collect();
+        let fields: Vec<&str> = lines[0].split_whitespace().collect();
+        // type start_angle fov resolution max_range accuracy mode n
+        assert_eq!(&fields[1..3], ["0", "0"]);
+        assert_eq!(fields[3].parse::<f32>().unwrap(), std::f32::consts::TAU);
+        assert_eq!(fields[8], "720");
+        let direct = json_lines(&tool(
+            &[&["log", &file, "--format", protocol][..], &QUICK].concat(),
+        ));
+        let back = json_lines(&tool(&[&["log", &log_name][..], &QUICK].concat()));
+        assert_eq!(direct.len(), lines.len() - 1);
+        assert_eq!(
+            direct.iter().map(estimate).collect::<Vec<_>>(),
+            back.iter().map(estimate).collect::<Vec<_>>(),
+            "{protocol}"
+        );
+    }
+}
+
+#[test]
+fn damaged_captures_are_counted_on_stderr() {
+    let mut bytes = std::fs::read(capture("ld06.bin")).unwrap();
+    // Packet 100's distance bytes (offset 10 in the packet), packet 200's
+    // header, and a run of noise after packet 300.
+    bytes[100 * 47 + 10] ^= 0x10;
+    bytes[200 * 47] = 0x00;
+    let noise: Vec<u8> = (0..500u32).map(|i| (i * 97 + 13) as u8).collect();
+    bytes.splice(301 * 47..301 * 47, noise);
+    let file = scratch("damaged-ld06.bin");
+    std::fs::write(&file, &bytes).unwrap();
+    let out = tool(
+        &[
+            &["log", &file.display().to_string(), "--format", "ld06"][..],
+            &QUICK,
+        ]
+        .concat(),
+    );
+    assert!(out.status.success());
+    assert_eq!(json_lines(&out).len(), 19);
+    let err = stderr(&out);
+    // 1231 intact packets less the two damaged ones.
+    assert!(err.contains("ld06: 1229 packets"), "{err}");
+    assert!(err.contains("dropped: 1 bad checksum"), "{err}");
+}
+
+#[test]
+fn unusable_captures_are_errors() {
+    let empty = scratch("empty.bin");
+    std::fs::write(&empty, b"").unwrap();
+    let name = empty.display().to_string();
+    let out = tool(&["log", &name, "--format", "ydlidar", "-q"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).contains("no usable laser scan"),
+        "{}",
+        stderr(&out)
+    );
+    let out = tool(&["wire", "--protocol", "ld06", &name, "--out", "-"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).contains("no complete revolution"),
+        "{}",
+        stderr(&out)
+    );
+    let out = tool(&[
+        "wire",
+        "--protocol",
+        "ld06",
+        "/nonexistent/capture.bin",
+        "--out",
+        "-",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let out = tool(&[
+        "wire",
+        "--protocol",
+        "ld06",
+        &capture("ld06.bin"),
+        "--out",
+        "-",
+        "--max-range",
+        "-1",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+}
