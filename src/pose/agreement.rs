@@ -99,7 +99,7 @@ pub(crate) fn agreement<const W: usize, const H: usize, const RW: usize, const N
 ) -> Agreement {
     let (cos, sin) = sin_cos_q15::<N>(alpha);
     let scale = i64::from(scale_q16.max(1));
-    let inv_scale = (1i64 << 32) / scale;
+    let inv_scale = (1i64 << 32).checked_div(scale).unwrap_or(1 << 16);
     let u_q16 = (u_q8.0 << 8, u_q8.1 << 8);
     let forward = tally(current, reference, free.map(|f| f.reference), |p| {
         let (x, y) = scaled(rotate_inverse_q16((cos, sin), p), inv_scale);

@@ -132,9 +132,11 @@ impl Beam {
             return;
         }
         let steps = ((free_length + 0xffff) >> 16).clamp(1, max_steps);
+        // |d|·free_length < 2⁶² and length·steps ≥ 1: no overflow, no zero.
+        let per_step = self.length.saturating_mul(steps);
         let (sx, sy) = (
-            self.d.0 * free_length / (self.length * steps),
-            self.d.1 * free_length / (self.length * steps),
+            (self.d.0 * free_length).checked_div(per_step).unwrap_or(0),
+            (self.d.1 * free_length).checked_div(per_step).unwrap_or(0),
         );
         let (mut x, mut y) = (i64::from(self.origin.0), i64::from(self.origin.1));
         for _ in 0..=steps {
