@@ -295,3 +295,106 @@ fn a_symmetric_room_with_each_views_own_occlusion_is_flagged() {
         assert_ne!(r.status, Status::Confident, "verification {verify}: {r:?}");
     }
 }
+
+/// The free-space share of a candidate from its definition, in `f64`: the
+/// decision samples (up to `4 · points_for(W, H)` occupied cells of each
+/// view, spread evenly in raster order), each mapped by the candidate's
+/// pose into the other view (`p₁ = R(−α)·p₂ + u` forward, `p₂ = R(α)·(p₁ −
+/// u)` backward, `u = −R(−α)·t`, the nearest cell), a violation when it
+/// scores 0 there (no occupied cell within one) and the cell is free; the
+/// mean of the two directions' shares.
+fn free_share_reference(
+    views: [&G128; 2],
+    free: [&G128; 2],
+    alpha: f64,
+    t: (f64, f64),
+) -> f64 {
+    use host_tests::reference::Image;
+    use host_tests::verify_reference::{points_for, sample_at_most, ScoreMap};
+    let image = |g: &G128| {
+        let mut i = Image::new(128, 128);
+        for (c, r) in g.occupied_cells() {
+            i.set(c, r, true);
+        }
+        i
+    };
+    let (images, half) = (views.map(image), 63.5);
+    let (s, c) = alpha.sin_cos();
+    // u = −R(−α)·t, a whole number of cells for a rival (its search shift).
+    let u = (
+        (-(c * t.0 + s * t.1)).round(),
+        (-(c * t.1 - s * t.0)).round(),
+    );
+    let share = |from: usize, map: &dyn Fn(f64, f64) -> (f64, f64)| {
+        let to = 1 - from;
+        let scores = ScoreMap::new(&images[to]);
+        let points = sample_at_most(&images[from], 4 * points_for(128, 128));
+        let violations = points
+            .iter()
+            .filter(|&&(col, row)| {
+                let (x, y) = map(col as f64 - half, half - row as f64);
+                let (c1, r1) = ((x + half + 0.5).floor() as i64, (half - y + 0.5).floor() as i64);
+                scores.score(c1, r1) == 0
+                    && c1 >= 0
+                    && r1 >= 0
+                    && free[to].get(c1 as usize, r1 as usize)
+            })
+            .count();
+        violations as f64 / points.len().max(1) as f64
+    };
+    let forward = share(1, &|x, y| (c * x + s * y + u.0, c * y - s * x + u.1));
+    let backward = share(0, &|x, y| {
+        let (dx, dy) = (x - u.0, y - u.1);
+        (c * dx - s * dy, s * dx + c * dy)
+    });
+    (forward + backward) / 2.0
+}
+
+/// Every rival's reported free-space share (judged at its search pose:
+/// whole θ steps and cells) equals the `f64` definition within a few points
+/// of each sample, on ray-cast scans in the L-shaped building.
+#[test]
+fn free_space_shares_match_their_definition() {
+    let walls = building();
+    let laser = Laser::centred(240.0, 481, 30.0);
+    let raster = Raster::with_radius(10.0, 128).unwrap();
+    let mut checked = 0;
+    let mut nonzero = 0;
+    for (a, b) in [
+        ((2.0, 4.0, 0.3), (7.0, 2.5, 3.3)),
+        ((3.0, 1.2, 0.0), (8.5, 2.0, 3.1)),
+        ((1.2, 5.0, 1.4), (3.0, 8.5, -1.8)),
+        ((10.0, 1.5, 2.9), (4.5, 2.5, -0.2)),
+        ((2.5, 8.0, -1.2), (2.0, 3.0, 1.9)),
+        ((5.0, 2.5, 0.1), (9.5, 4.0, 3.0)),
+        ((3.0, 3.0, 0.0), (3.5, 3.2, 0.4)),
+        ((8.0, 2.0, 1.0), (4.0, 7.0, 2.0)),
+    ] {
+        let (g1, f1) = view(&laser, &laser.scan(&walls, a), &raster);
+        let (g2, f2) = view(&laser, &laser.scan(&walls, b), &raster);
+        let mut e = E128::new(Mode::Improved);
+        let reference = e.reference(&g1);
+        let free = FreeSpace {
+            reference: &f1,
+            current: &f2,
+        };
+        let r = e.estimate_scans(&reference, &g2, &free, None);
+        for c in r.candidates.iter().skip(1).chain(&r.runner_up) {
+            let (Some(share), Some((tx, ty))) = (c.free_space, c.translation) else {
+                panic!("a verified candidate on scans: {c:?}");
+            };
+            let alpha = f64::from(c.alpha.0) / 4_294_967_296.0 * std::f64::consts::TAU;
+            let expected =
+                free_share_reference([&g1, &g2], [&f1, &f2], alpha, (tx.to_num(), ty.to_num()));
+            let got = share.to_num::<f64>();
+            assert!(
+                (got - expected).abs() <= 0.02,
+                "{a:?} → {b:?}: {got} against {expected} for {c:?}"
+            );
+            checked += 1;
+            nonzero += usize::from(expected > 0.0);
+        }
+    }
+    println!("{checked} candidates checked, {nonzero} with violations");
+    assert!(checked >= 8 && nonzero >= 3, "{checked} / {nonzero}");
+}

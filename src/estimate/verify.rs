@@ -187,8 +187,10 @@ impl<
             (*winner, aligner.points(), near, alpha, u_q8)
         };
         let max_score = (2 * points).max(1);
-        let alignment =
-            |score: u32| Score::from_bits(((u64::from(score) << 16) / u64::from(max_score)) as i32);
+        let alignment = |score: u32| {
+            let share = (u64::from(score) << 16).checked_div(u64::from(max_score));
+            Score::from_bits(share.unwrap_or(0) as i32)
+        };
         let overlap = Score::from_bits(((u64::from(near) << 16) / u64::from(points.max(1))) as i32);
         let support = winner.support(&t);
         // The best supported seed at least 5° from the winner.

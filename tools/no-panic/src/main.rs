@@ -543,6 +543,7 @@ pub extern "C" fn _start() -> ! {
     let lidar_bytes: &[u8] = opaque(&BYTES[..600]);
     entry_lidar(Ld06::new(), lidar_bytes);
     entry_lidar(Rplidar::new(), lidar_bytes);
+    entry_lidar(Xv11::new(), lidar_bytes);
     entry_lidar(
         Ydlidar::with_layout(opaque(YdlidarLayout::default())),
         lidar_bytes,
