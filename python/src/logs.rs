@@ -45,6 +45,12 @@ fn read(args: &LogArgs) -> Result<Read, Fatal> {
         log::Format::Auto => head.starts_with(log::MCAP_MAGIC),
         log::Format::Mcap => true,
         log::Format::Carmen => false,
+        log::Format::Ld06 | log::Format::Rplidar | log::Format::Ydlidar | log::Format::Xv11 => {
+            return Err(Fatal::usage(format!(
+                "{file}: raw lidar captures are not read here; convert one with \
+                 `hough-heading wire --protocol PROTOCOL CAPTURE --out LOG` and read LOG"
+            )))
+        }
     };
     let laser_offset = args.laser_offset.as_ref().map(|v| [v[0], v[1], v[2]]);
     let mut out = Read {
