@@ -303,12 +303,7 @@ fn a_symmetric_room_with_each_views_own_occlusion_is_flagged() {
 /// u)` backward, `u = −R(−α)·t`, the nearest cell), a violation when it
 /// scores 0 there (no occupied cell within one) and the cell is free; the
 /// mean of the two directions' shares.
-fn free_share_reference(
-    views: [&G128; 2],
-    free: [&G128; 2],
-    alpha: f64,
-    t: (f64, f64),
-) -> f64 {
+fn free_share_reference(views: [&G128; 2], free: [&G128; 2], alpha: f64, t: (f64, f64)) -> f64 {
     use host_tests::reference::Image;
     use host_tests::verify_reference::{points_for, sample_at_most, ScoreMap};
     let image = |g: &G128| {
@@ -333,7 +328,10 @@ fn free_share_reference(
             .iter()
             .filter(|&&(col, row)| {
                 let (x, y) = map(col as f64 - half, half - row as f64);
-                let (c1, r1) = ((x + half + 0.5).floor() as i64, (half - y + 0.5).floor() as i64);
+                let (c1, r1) = (
+                    (x + half + 0.5).floor() as i64,
+                    (half - y + 0.5).floor() as i64,
+                );
                 scores.score(c1, r1) == 0
                     && c1 >= 0
                     && r1 >= 0
