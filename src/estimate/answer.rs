@@ -309,8 +309,12 @@ pub(crate) fn verified_confidence(overlap: Score, gap: Score, t: &Thresholds) ->
                 .saturating_div(threshold.saturating_mul_int(2))
                 .clamp(Score::ZERO, half - Score::DELTA)
         } else {
-            (half + (value - threshold).saturating_div(threshold.saturating_mul_int(2)))
-                .clamp(half, one)
+            half.saturating_add(
+                value
+                    .saturating_sub(threshold)
+                    .saturating_div(threshold.saturating_mul_int(2)),
+            )
+            .clamp(half, one)
         }
     };
     ramp(gap, t.decision_gap).min(ramp(overlap, t.min_overlap))
@@ -366,6 +370,31 @@ mod tests {
             let c = confidence(v, v, v, &t);
             assert!((Score::ZERO..=Score::ONE).contains(&c), "{v}: {c}");
         }
+    }
+
+    /// The verified confidence: ½ exactly at the thresholds, in [0, 1] for
+    /// any inputs (a threshold of one bit makes the ramp saturate, not wrap).
+    #[test]
+    fn verified_confidence_is_half_at_its_thresholds() {
+        let t = Thresholds::DEFAULT;
+        let half = Score::from_num(0.5);
+        assert_eq!(verified_confidence(Score::ONE, t.decision_gap, &t), half);
+        assert_eq!(verified_confidence(t.min_overlap, Score::ONE, &t), half);
+        assert!(verified_confidence(Score::ONE, t.decision_gap - Score::DELTA, &t) < half);
+        assert!(verified_confidence(t.min_overlap - Score::DELTA, Score::ONE, &t) < half);
+        let tiny = Thresholds {
+            decision_gap: Score::DELTA,
+            min_overlap: Score::DELTA,
+            ..t
+        };
+        for v in [Score::MIN, -Score::ONE, Score::ZERO, Score::ONE, Score::MAX] {
+            let c = verified_confidence(v, v, &tiny);
+            assert!((Score::ZERO..=Score::ONE).contains(&c), "{v}: {c}");
+        }
+        assert_eq!(
+            verified_confidence(Score::MAX, Score::MAX, &tiny),
+            Score::ONE
+        );
     }
 
     fn candidate(degrees: f32) -> Candidate {
