@@ -27,7 +27,9 @@
 use crate::angle::Angle;
 use crate::config::icp_points;
 use crate::grid::Grid;
-use crate::pose::search::{centred_q1, point_score, rotate_inverse_q16, sampled_cells, scaled};
+use crate::pose::search::{
+    centred_q1, point_score, rotate_inverse_q16, sampled_cells, scaled, to_cell_q16,
+};
 use crate::scan::FreeSpace;
 use crate::trig::sin_cos_q15;
 use crate::Score;
@@ -130,7 +132,10 @@ fn tally<const W: usize, const H: usize, const RW: usize>(
     let mut t = Tally::default();
     for (col, row) in sampled_cells(source, icp_points(W, H)) {
         let (x, y) = map(centred_q1::<W, H>(col, row));
-        let (c, r) = to_cell(x, y, W, H);
+        let (c, r) = to_cell_q16::<W, H>(x, y);
+        // Far outside any grid beyond ±2³⁰ cells: clamped into an i32.
+        let clamp = |v: i64| v.clamp(-(1 << 30), 1 << 30) as i32;
+        let (c, r) = (clamp(c), clamp(r));
         let score = point_score(target, c, r);
         t.points += 1;
         t.score += score;
@@ -143,15 +148,6 @@ fn tally<const W: usize, const H: usize, const RW: usize>(
         }
     }
     t
-}
-
-/// The cell of a `w × h` grid nearest the centred point `(x, y)` (Q16),
-/// clamped to ±2³⁰ (far outside any grid).
-fn to_cell(x: i64, y: i64, w: usize, h: usize) -> (i32, i32) {
-    let col = x + ((w as i64 - 1) << 15);
-    let row = ((h as i64 - 1) << 15) - y;
-    let clamp = |v: i64| ((v + (1 << 15)) >> 16).clamp(-(1 << 30), 1 << 30) as i32;
-    (clamp(col), clamp(row))
 }
 
 /// `a / b` in [0, 1] as a [`Score`]; 0 when `b` is 0.

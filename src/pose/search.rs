@@ -386,7 +386,7 @@ pub(crate) fn rotate_inverse_q16((cos, sin): (i32, i32), (x, y): (i32, i32)) -> 
 }
 
 /// The reference cell nearest the centred point `(x, y)` (Q16).
-fn to_cell_q16<const W: usize, const H: usize>(x: i64, y: i64) -> (i64, i64) {
+pub(crate) fn to_cell_q16<const W: usize, const H: usize>(x: i64, y: i64) -> (i64, i64) {
     let col = x + ((W as i64 - 1) << 15);
     let row = ((H as i64 - 1) << 15) - y;
     ((col + (1 << 15)) >> 16, (row + (1 << 15)) >> 16)
