@@ -150,9 +150,9 @@ impl<
         let grid = &mut self.grids[view.index()];
         grid.clear_all();
         let stats = raster.rasterize(scan, grid);
-        let mut free = Grid::new();
-        raster.free_space(scan, &mut free);
-        self.free[view.index()] = Some(free);
+        let free = self.free[view.index()].get_or_insert_with(Grid::new);
+        free.clear_all();
+        raster.free_space(scan, free);
         stats
     }
 
