@@ -45,10 +45,12 @@ pub(crate) struct Placement {
 pub(crate) struct Aligner<'a, const W: usize, const H: usize, const RW: usize, const PW: usize> {
     reference: &'a Grid<W, H, RW>,
     pyramid: &'a Pyramid<W, H, PW>,
-    view: &'a Grid<W, H, RW>,
     /// The reference's free space (scans) and what a point scoring 0 on it
     /// costs, score units.
     free: Option<(&'a Grid<W, H, RW>, u32)>,
+    /// The sampled view points, centred coordinates × 2 (|·| < 2¹⁵ for
+    /// W, H ≤ 2048), picked once ([`sampled_cells`]).
+    sampled: [Cell; ALIGN_POINTS],
     /// Centroid of the sampled view points, centred coordinates × 2.
     centroid_q1: (i32, i32),
     /// `1/s` (Q16): view points are shrunk by it before the pose.
@@ -75,23 +77,25 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
         free: Option<(&'a Grid<W, H, RW>, u32)>,
         inv_scale_q16: u32,
     ) -> Self {
-        let (mut n, mut sx, mut sy) = (0i64, 0i64, 0i64);
-        for (col, row) in sampled_cells(view, align_points(W, H)) {
+        let mut sampled = [(0, 0); ALIGN_POINTS];
+        let (mut n, mut sx, mut sy) = (0usize, 0i64, 0i64);
+        for ((col, row), slot) in sampled_cells(view, align_points(W, H)).zip(sampled.iter_mut()) {
             let (x, y) = centred_q1::<W, H>(col, row);
+            *slot = (clamp_i16(i64::from(x)), clamp_i16(i64::from(y)));
             n += 1;
             sx += i64::from(x);
             sy += i64::from(y);
         }
-        let n = n.max(1);
+        let divisor = n.max(1) as i64;
         Self {
             reference,
             pyramid,
-            view,
             free,
-            centroid_q1: ((sx / n) as i32, (sy / n) as i32),
+            sampled,
+            centroid_q1: ((sx / divisor) as i32, (sy / divisor) as i32),
             inv_scale_q16: i64::from(inv_scale_q16),
             cells: [(0, 0); ALIGN_POINTS],
-            count: 0,
+            count: n,
         }
     }
 
@@ -121,19 +125,16 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
     /// plus `u_q8` (centred reference coordinates, Q8 cells, y up).
     pub(crate) fn rotate<const N: usize>(&mut self, alpha: Angle, u_q8: (i64, i64)) {
         let (cos, sin) = sin_cos_q15::<N>(alpha);
-        let mut count = 0;
-        for (col, row) in sampled_cells(self.view, align_points(W, H)) {
+        let count = self.count;
+        let points = self.sampled.iter().take(count);
+        for (&(x, y), slot) in points.zip(self.cells.iter_mut()) {
             let (x, y) = scaled(
-                rotate_inverse_q16((cos, sin), centred_q1::<W, H>(col, row)),
+                rotate_inverse_q16((cos, sin), (i32::from(x), i32::from(y))),
                 self.inv_scale_q16,
             );
             let cell = to_cell_q16::<W, H>(x + (u_q8.0 << 8), y + (u_q8.1 << 8));
-            if let Some(slot) = self.cells.get_mut(count) {
-                *slot = (clamp_i16(cell.0), clamp_i16(cell.1));
-                count += 1;
-            }
+            *slot = (clamp_i16(cell.0), clamp_i16(cell.1));
         }
-        self.count = count;
     }
 
     /// Score of the rotated points shifted by `(dc, dr)` cells.
@@ -353,13 +354,18 @@ pub(crate) fn sampled_cells<const W: usize, const H: usize, const RW: usize>(
 ) -> impl Iterator<Item = (usize, usize)> + '_ {
     let occupied = grid.occupied() as usize;
     let keep = max.min(occupied);
-    grid.occupied_cells()
-        .enumerate()
-        .filter(move |&(i, _)| {
-            // Cell i is kept when ⌊(i + 1)·keep / occupied⌋ steps up.
-            occupied > 0 && ((i + 1) * keep / occupied) > (i * keep / occupied)
-        })
-        .map(|(_, cell)| cell)
+    // Cell i is kept when ⌊(i + 1)·keep / occupied⌋ steps up: the running
+    // remainder `(i + 1)·keep mod occupied` wraps (keep ≤ occupied, so it
+    // wraps at most once a cell), without a division a cell.
+    let mut remainder = 0usize;
+    grid.occupied_cells().filter(move |_| {
+        remainder += keep;
+        let step = remainder >= occupied;
+        if step {
+            remainder -= occupied;
+        }
+        step
+    })
 }
 
 /// Centred coordinates of cell `(col, row)` times 2 (exact integers):

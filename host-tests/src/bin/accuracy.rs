@@ -88,7 +88,12 @@ struct Row {
     kind: SceneKind,
     size: usize,
     damage: (&'static str, Damage),
+    /// The second view is rendered at a scale of 0.9–1.1 (else at 1).
     with_scale: bool,
+    /// The estimator searches the scale (`ScaleRange::DEFAULT`). Rows with
+    /// a rendered scale and no search are the *unmodelled scale* rows: the
+    /// default options facing a view at another scale.
+    scale_search: bool,
     /// Independent missing stretches in the two views
     /// ([`trial_pair_independent`]).
     independent: bool,
@@ -102,11 +107,21 @@ impl Row {
             self.size,
             self.damage.0,
             if self.independent { " indep." } else { "" },
-            if self.with_scale { "" } else { " (s = 1)" }
+            self.scale_note()
         )
     }
 
-    /// A stable row id for the seeds: kind, size, damage, scale, independence.
+    /// How the row's scale shows in labels.
+    fn scale_note(&self) -> &'static str {
+        match (self.with_scale, self.scale_search) {
+            (false, _) => " (s = 1)",
+            (true, true) => "",
+            (true, false) => " (s 0.9–1.1 unmodelled)",
+        }
+    }
+
+    /// A stable row id for the seeds: kind, size, damage, scale, independence
+    /// (an unmodelled-scale row sees the same pairs as its scale-search row).
     fn id(&self) -> u64 {
         let kind = SceneKind::ALL
             .iter()
@@ -125,13 +140,15 @@ impl Row {
             && self.size == size
             && self.damage.0 == damage
             && self.with_scale
+            && self.scale_search
             && !self.independent
     }
 }
 
 /// The rows of the run: every kind × damage × size (64², 128², 256²; the
 /// quick run skips 256²), then the half-turn-symmetric kinds with independent
-/// damage in the two views, then scale-1 rows for the translation.
+/// damage in the two views, then scale-1 rows for the translation, then the
+/// unmodelled-scale rows (second view at 0.9–1.1, no scale search).
 fn rows(quick: bool) -> Vec<Row> {
     let sizes: &[usize] = if quick { &[64, 128] } else { &[64, 128, 256] };
     let row = |kind, size, damage, with_scale, independent| Row {
@@ -139,6 +156,7 @@ fn rows(quick: bool) -> Vec<Row> {
         size,
         damage,
         with_scale,
+        scale_search: with_scale,
         independent,
     };
     let mut rows = Vec::new();
@@ -159,6 +177,14 @@ fn rows(quick: bool) -> Vec<Row> {
     for &size in sizes {
         for kind in [SceneKind::RandomPolygon, SceneKind::ManhattanRoom] {
             rows.push(row(kind, size, Damage::PRESETS[1], false, false));
+        }
+    }
+    for &size in sizes {
+        for kind in [SceneKind::RandomPolygon, SceneKind::ManhattanRoom] {
+            rows.push(Row {
+                scale_search: false,
+                ..row(kind, size, Damage::PRESETS[1], true, false)
+            });
         }
     }
     rows
@@ -191,7 +217,7 @@ fn run_row<const W: usize, const RW: usize, const RHO: usize, const PW: usize>(
         let (truth, pair) = render(row.kind, &row.damage.1, W, W, row.with_scale, seed);
         let mut paper = Estimator::<W, W, RW, N_THETA, HALF, RHO, PW>::new(Mode::Paper);
         let mut improved = Estimator::<W, W, RW, N_THETA, HALF, RHO, PW>::new(Mode::Improved);
-        if row.with_scale {
+        if row.scale_search {
             improved = improved.with_scale_search(ScaleRange::DEFAULT);
         }
         let mut unverified = improved.clone().with_verification(false);
@@ -288,7 +314,12 @@ fn table_line(row: &Row, pipeline: Pipeline, s: &Summary) -> String {
         ),
         format!("{}²", row.size),
         row.damage.0.to_string(),
-        if row.with_scale { "0.9–1.1" } else { "1" }.into(),
+        match (row.with_scale, row.scale_search) {
+            (false, _) => "1",
+            (true, true) => "0.9–1.1",
+            (true, false) => "0.9–1.1, not searched",
+        }
+        .into(),
         match pipeline {
             Pipeline::Paper => "paper",
             Pipeline::Unverified => "improved, no verification",
@@ -315,12 +346,12 @@ fn table_line(row: &Row, pipeline: Pipeline, s: &Summary) -> String {
         } else {
             "–".into()
         },
-        if translation && row.with_scale {
+        if translation && row.scale_search {
             pct_fine(s.scale_median)
         } else {
             "–".into()
         },
-        if translation && row.with_scale {
+        if translation && row.scale_search {
             pct_fine(s.scale_p90)
         } else {
             "–".into()
@@ -555,6 +586,7 @@ fn targets(results: &[(Row, Vec<Outcome>)]) -> String {
                     && r.independent == independent
                     && r.damage.0 == damage
                     && r.with_scale
+                    && r.scale_search
             })
             .iter()
             .map(|s| s.flagged)
@@ -598,6 +630,7 @@ fn targets(results: &[(Row, Vec<Outcome>)]) -> String {
                 && r.size == 128
                 && r.damage.0 == "moderate"
                 && r.with_scale == with_scale
+                && r.scale_search == with_scale
                 && !r.independent
         };
         for kind in [SceneKind::RandomPolygon, SceneKind::ManhattanRoom] {
@@ -614,6 +647,31 @@ fn targets(results: &[(Row, Vec<Outcome>)]) -> String {
                     Some(s.translation_median_px <= 0.5 && s.translation_p90_px <= 1.5),
                 );
             }
+        }
+    }
+    for kind in [SceneKind::RandomPolygon, SceneKind::ManhattanRoom] {
+        let unmodelled = |r: &Row| {
+            r.kind == kind
+                && r.size == 128
+                && r.damage.0 == "moderate"
+                && r.with_scale
+                && !r.scale_search
+        };
+        if let Some(s) = find(&unmodelled).first() {
+            line(
+                &format!(
+                    "{} 128² moderate, second view at scale 0.9–1.1, default options (no scale \
+                     search): wrong among unflagged ≤ 1 % (issue 23)",
+                    kind.name()
+                ),
+                format!(
+                    "{} (failures {}, flagged {})",
+                    pct(s.failures_unflagged),
+                    pct(s.failures),
+                    pct(s.flagged)
+                ),
+                Some(s.failures_unflagged.is_nan() || s.failures_unflagged <= 0.01),
+            );
         }
     }
     out
