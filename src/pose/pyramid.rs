@@ -139,6 +139,14 @@ pub(crate) fn any_in_columns<const RW: usize>(rows: &[[u32; RW]], lo: i32, n: u3
     }
 }
 
+/// Whether every one of `rows` has all bits in columns `lo..lo + n` set
+/// (`1 ≤ n ≤ 31`; columns outside the row count as clear).
+#[inline]
+pub(crate) fn all_in_columns<const RW: usize>(rows: &[[u32; RW]], lo: i32, n: u32) -> bool {
+    let mask = (1u32 << n) - 1;
+    !rows.is_empty() && rows.iter().all(|r| bits(r, lo, n) == mask)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

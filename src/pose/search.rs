@@ -22,7 +22,7 @@ use crate::angle::Angle;
 use crate::config::{align_points, ALIGN_POINTS};
 use crate::grid::Grid;
 use crate::math::sort_descending;
-use crate::pose::pyramid::{any_in_columns, bits, Pyramid};
+use crate::pose::pyramid::{all_in_columns, any_in_columns, bits, Pyramid};
 use crate::trig::sin_cos_q15;
 
 /// A point of image 2 turned into the reference frame, in reference cells
@@ -194,6 +194,11 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
     /// pyramid (2–3 cells of `2ᵏ` per axis: looser, but few blocks are that
     /// large).
     ///
+    /// With the reference's free space, a point that reaches no occupied
+    /// cell and lies on free space at every shift of the block (exact
+    /// levels only) costs its penalty in the bound too: it scores 0 and
+    /// violates at each of them.
+    ///
     /// Returns 0 as soon as the bound cannot exceed `floor`.
     fn bound(&self, k: usize, c0: i32, r0: i32, floor: u32) -> u32 {
         let side = 1i32 << k;
@@ -202,6 +207,24 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
         let Some(allowed) = self.points().checked_sub(floor / 2 + 1) else {
             return 0;
         };
+        let certain_free = |c: i32, r: i32| match self.free {
+            Some((free, penalty)) if k <= EXACT_LEVELS => {
+                let (a, b) = (c + c0, r + r0);
+                let block = free
+                    .words()
+                    .get(b.max(0) as usize..(b + side).clamp(0, H as i32) as usize)
+                    .unwrap_or(&[]);
+                let inside = b >= 0 && b + side <= H as i32;
+                if inside && all_in_columns(block, a, side as u32) {
+                    penalty
+                } else {
+                    0
+                }
+            }
+            _ => 0,
+        };
+        // Reachable score: 2 a point not yet missed, less certain penalties.
+        let mut reachable = 2 * self.points();
         let mut misses = 0;
         let mut hits = 0;
         for &(c, r) in self.turned() {
@@ -223,12 +246,15 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
                 hits += 1;
             } else {
                 misses += 1;
-                if misses > allowed {
+                reachable = reachable
+                    .saturating_sub(2)
+                    .saturating_sub(certain_free(i32::from(c), i32::from(r)));
+                if misses > allowed || reachable <= floor {
                     return 0;
                 }
             }
         }
-        2 * hits
+        reachable.min(2 * hits)
     }
 
     /// The best integer shift within `[centre − radius, centre + radius]` in
