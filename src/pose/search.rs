@@ -45,12 +45,10 @@ pub(crate) struct Placement {
 pub(crate) struct Aligner<'a, const W: usize, const H: usize, const RW: usize, const PW: usize> {
     reference: &'a Grid<W, H, RW>,
     pyramid: &'a Pyramid<W, H, PW>,
+    view: &'a Grid<W, H, RW>,
     /// The reference's free space (scans) and what a point scoring 0 on it
     /// costs, score units.
     free: Option<(&'a Grid<W, H, RW>, u32)>,
-    /// The sampled view points, centred coordinates × 2 (|·| < 2¹⁵ for
-    /// W, H ≤ 2048), picked once ([`sampled_cells`]).
-    sampled: [Cell; ALIGN_POINTS],
     /// Centroid of the sampled view points, centred coordinates × 2.
     centroid_q1: (i32, i32),
     /// `1/s` (Q16): view points are shrunk by it before the pose.
@@ -77,25 +75,23 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
         free: Option<(&'a Grid<W, H, RW>, u32)>,
         inv_scale_q16: u32,
     ) -> Self {
-        let mut sampled = [(0, 0); ALIGN_POINTS];
-        let (mut n, mut sx, mut sy) = (0usize, 0i64, 0i64);
-        for ((col, row), slot) in sampled_cells(view, align_points(W, H)).zip(sampled.iter_mut()) {
+        let (mut n, mut sx, mut sy) = (0i64, 0i64, 0i64);
+        for (col, row) in sampled_cells(view, align_points(W, H)) {
             let (x, y) = centred_q1::<W, H>(col, row);
-            *slot = (clamp_i16(i64::from(x)), clamp_i16(i64::from(y)));
             n += 1;
             sx += i64::from(x);
             sy += i64::from(y);
         }
-        let divisor = n.max(1) as i64;
+        let n = n.max(1);
         Self {
             reference,
             pyramid,
+            view,
             free,
-            sampled,
-            centroid_q1: ((sx / divisor) as i32, (sy / divisor) as i32),
+            centroid_q1: ((sx / n) as i32, (sy / n) as i32),
             inv_scale_q16: i64::from(inv_scale_q16),
             cells: [(0, 0); ALIGN_POINTS],
-            count: n,
+            count: 0,
         }
     }
 
@@ -125,16 +121,18 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
     /// plus `u_q8` (centred reference coordinates, Q8 cells, y up).
     pub(crate) fn rotate<const N: usize>(&mut self, alpha: Angle, u_q8: (i64, i64)) {
         let (cos, sin) = sin_cos_q15::<N>(alpha);
-        let count = self.count;
-        let points = self.sampled.iter().take(count);
-        for (&(x, y), slot) in points.zip(self.cells.iter_mut()) {
+        let mut count = 0;
+        let cells = sampled_cells(self.view, align_points(W, H));
+        for ((col, row), slot) in cells.zip(self.cells.iter_mut()) {
             let (x, y) = scaled(
-                rotate_inverse_q16((cos, sin), (i32::from(x), i32::from(y))),
+                rotate_inverse_q16((cos, sin), centred_q1::<W, H>(col, row)),
                 self.inv_scale_q16,
             );
             let cell = to_cell_q16::<W, H>(x + (u_q8.0 << 8), y + (u_q8.1 << 8));
             *slot = (clamp_i16(cell.0), clamp_i16(cell.1));
+            count += 1;
         }
+        self.count = count;
     }
 
     /// Score of the rotated points shifted by `(dc, dr)` cells.
@@ -189,72 +187,99 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
     /// Upper bound of [`Self::score`] over the block of shifts
     /// `[c0, c0 + 2ᵏ) × [r0, r0 + 2ᵏ)`, level `k ≥ 1`: twice the number of
     /// points with an occupied reference cell within their reach (the block
-    /// widened by one cell). Up to level [`EXACT_LEVELS`] the reach is tested
-    /// exactly on the grid's rows (`2ᵏ + 2` rows a point); above, on the
-    /// pyramid (2–3 cells of `2ᵏ` per axis: looser, but few blocks are that
-    /// large).
+    /// widened by one cell, [`Self::reaches`]).
     ///
-    /// With the reference's free space, a point that reaches no occupied
-    /// cell and lies on free space at every shift of the block (exact
-    /// levels only) costs its penalty in the bound too: it scores 0 and
-    /// violates at each of them.
+    /// With the reference's free space (exact levels only), a point that
+    /// reaches no occupied cell and lies on free space at every shift of the
+    /// block also costs its penalty: it scores 0 and violates at each of them.
     ///
     /// Returns 0 as soon as the bound cannot exceed `floor`.
     fn bound(&self, k: usize, c0: i32, r0: i32, floor: u32) -> u32 {
-        let side = 1i32 << k;
-        let rows = self.reference.words();
+        match self.free.filter(|_| k <= EXACT_LEVELS) {
+            Some((free, penalty)) => self.bound_with_free(k, c0, r0, floor, free, penalty),
+            None => self.bound_occupied(k, c0, r0, floor),
+        }
+    }
+
+    /// [`Self::bound`] without free space.
+    fn bound_occupied(&self, k: usize, c0: i32, r0: i32, floor: u32) -> u32 {
         // 2·hits > floor ⟺ hits ≥ floor/2 + 1: at most this many may miss.
         let Some(allowed) = self.points().checked_sub(floor / 2 + 1) else {
             return 0;
         };
-        let certain_free = |c: i32, r: i32| match self.free {
-            Some((free, penalty)) if k <= EXACT_LEVELS => {
-                let (a, b) = (c + c0, r + r0);
-                let block = free
-                    .words()
-                    .get(b.max(0) as usize..(b + side).clamp(0, H as i32) as usize)
-                    .unwrap_or(&[]);
-                let inside = b >= 0 && b + side <= H as i32;
-                if inside && all_in_columns(block, a, side as u32) {
-                    penalty
-                } else {
-                    0
-                }
-            }
-            _ => 0,
-        };
-        // Reachable score: 2 a point not yet missed, less certain penalties.
-        let mut reachable = 2 * self.points();
         let mut misses = 0;
-        let mut hits = 0;
-        for &(c, r) in self.turned() {
-            let reached = {
-                let (a, b) = (i32::from(c) + c0 - 1, i32::from(r) + r0 - 1);
-                if k <= EXACT_LEVELS {
-                    let reach = rows
-                        .get(b.max(0) as usize..(b + side + 2).clamp(0, H as i32) as usize)
-                        .unwrap_or(&[]);
-                    any_in_columns(reach, a, (side + 2) as u32)
-                } else {
-                    let (lo_c, hi_c) = (a >> k, (a + side + 1) >> k);
-                    let (lo_r, hi_r) = (b >> k, (b + side + 1) >> k);
-                    let n = (hi_c - lo_c + 1) as u32;
-                    (lo_r..=hi_r).any(|row| bits(self.pyramid.row(k, row), lo_c, n) != 0)
-                }
-            };
-            if reached {
-                hits += 1;
-            } else {
+        for &point in self.turned() {
+            if !self.reaches(k, c0, r0, point) {
                 misses += 1;
-                reachable = reachable
-                    .saturating_sub(2)
-                    .saturating_sub(certain_free(i32::from(c), i32::from(r)));
-                if misses > allowed || reachable <= floor {
+                if misses > allowed {
                     return 0;
                 }
             }
         }
-        reachable.min(2 * hits)
+        2 * (self.points() - misses)
+    }
+
+    /// [`Self::bound`] with the reference's free space, levels
+    /// `1..=`[`EXACT_LEVELS`].
+    fn bound_with_free(
+        &self,
+        k: usize,
+        c0: i32,
+        r0: i32,
+        floor: u32,
+        free: &Grid<W, H, RW>,
+        penalty: u32,
+    ) -> u32 {
+        let side = 1i32 << k;
+        // Free at every shift of the block: the block's own cells (not
+        // widened), all set, all inside the grid.
+        let free_throughout = |(c, r): Cell| {
+            let (a, b) = (i32::from(c) + c0, i32::from(r) + r0);
+            let block = free
+                .words()
+                .get(b.max(0) as usize..(b + side).clamp(0, H as i32) as usize)
+                .unwrap_or(&[]);
+            b >= 0 && b + side <= H as i32 && all_in_columns(block, a, side as u32)
+        };
+        // What the block can still score: 2 a point not yet missed, less
+        // the certain penalties.
+        let mut reachable = 2 * self.points();
+        for &point in self.turned() {
+            if !self.reaches(k, c0, r0, point) {
+                reachable = reachable.saturating_sub(2);
+                if free_throughout(point) {
+                    reachable = reachable.saturating_sub(penalty);
+                }
+                if reachable <= floor {
+                    return 0;
+                }
+            }
+        }
+        reachable
+    }
+
+    /// Whether `point` shifted anywhere in the block `[c0, c0 + 2ᵏ) ×
+    /// [r0, r0 + 2ᵏ)` has an occupied reference cell within one cell. Up to
+    /// level [`EXACT_LEVELS`] it is tested exactly on the grid's rows
+    /// (`2ᵏ + 2` rows a point); above, on the pyramid (2–3 cells of `2ᵏ`
+    /// per axis: looser, but few blocks are that large).
+    #[inline(always)]
+    fn reaches(&self, k: usize, c0: i32, r0: i32, (c, r): Cell) -> bool {
+        let side = 1i32 << k;
+        let (a, b) = (i32::from(c) + c0 - 1, i32::from(r) + r0 - 1);
+        if k <= EXACT_LEVELS {
+            let reach = self
+                .reference
+                .words()
+                .get(b.max(0) as usize..(b + side + 2).clamp(0, H as i32) as usize)
+                .unwrap_or(&[]);
+            any_in_columns(reach, a, (side + 2) as u32)
+        } else {
+            let (lo_c, hi_c) = (a >> k, (a + side + 1) >> k);
+            let (lo_r, hi_r) = (b >> k, (b + side + 1) >> k);
+            let n = (hi_c - lo_c + 1) as u32;
+            (lo_r..=hi_r).any(|row| bits(self.pyramid.row(k, row), lo_c, n) != 0)
+        }
     }
 
     /// The best integer shift within `[centre − radius, centre + radius]` in
