@@ -194,6 +194,7 @@ fn demo_images(source: Source<'_>) -> Result<(usize, usize), Fatal> {
         free_space_weight: None,
         no_free_space: false,
         min_overlap: None,
+        search_budget: None,
     };
     let threshold = Threshold {
         level: options.threshold,

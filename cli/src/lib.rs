@@ -155,6 +155,11 @@ pub struct EstimatorArgs {
     /// (library default 0.30).
     #[arg(long, value_name = "FRACTION")]
     pub min_overlap: Option<f64>,
+    /// Tuning (verification): the most bound and score evaluations the
+    /// translation searches of one estimate may spend before the status
+    /// becomes `search_cut` (library default 12000; 4294967295: none).
+    #[arg(long, value_name = "EVALUATIONS")]
+    pub search_budget: Option<u32>,
 }
 
 impl EstimatorArgs {
@@ -210,6 +215,9 @@ impl EstimatorArgs {
                 )));
             }
             t.free_space_weight = Score::from_num(v);
+        }
+        if let Some(v) = self.search_budget {
+            t.search_budget = v;
         }
         Ok(t)
     }

@@ -150,6 +150,7 @@ pub fn status_name(status: Status) -> &'static str {
         Status::AmbiguousAxis => "ambiguous_axis",
         Status::LowOverlap => "low_overlap",
         Status::NoStructure => "no_structure",
+        Status::SearchCut => "search_cut",
     }
 }
 

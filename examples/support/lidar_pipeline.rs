@@ -85,6 +85,7 @@ pub fn record(e: &Estimate) -> [u8; RECORD_LEN] {
         Status::AmbiguousAxis => 2,
         Status::LowOverlap => 3,
         Status::NoStructure => 4,
+        Status::SearchCut => 5,
     };
     let (x, y) = e
         .translation

@@ -106,5 +106,6 @@ pub fn status_name(status: Status) -> &'static str {
         Status::AmbiguousAxis => "ambiguous-axis",
         Status::LowOverlap => "low-overlap",
         Status::NoStructure => "no-structure",
+        Status::SearchCut => "search-cut",
     }
 }

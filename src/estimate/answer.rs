@@ -28,6 +28,11 @@ pub enum Status {
     LowOverlap,
     /// Too few occupied cells or a featureless signature: no angle.
     NoStructure,
+    /// The verification's translation searches ran out of their work
+    /// budget ([`Thresholds::search_budget`]) before they finished: the
+    /// answer is the best pose found, but rivals may not have been searched
+    /// to the end, so it is not confident (confidence below ½).
+    SearchCut,
 }
 
 /// A possible rotation and its scores.
@@ -116,6 +121,17 @@ pub struct Thresholds {
     /// than this share of the second view within one cell of the reference.
     /// Default 0.30 (chosen on the real scan pairs, README).
     pub min_overlap: Score,
+    /// With verification: the most block evaluations (a bound or a score,
+    /// each over the search's sample of at most
+    /// [`align_points`](crate::config::align_points) cells) that the
+    /// translation searches of one estimate may spend on a 128² grid (a
+    /// `W × H` grid gets `search_budget · W·H / 128²`, at least 1); when
+    /// they run out, the searches keep what they found and the status is
+    /// [`Status::SearchCut`]. It caps the verification's worst case
+    /// (`budgets/TABLE.md`). Default 12 000 (chosen on the real scan pairs
+    /// of `../shared/data`: at 128² it cuts 40 of 4 730 pairs;
+    /// docs/figures.md). `u32::MAX`: no budget.
+    pub search_budget: u32,
 }
 
 impl Thresholds {
@@ -129,6 +145,7 @@ impl Thresholds {
         decision_gap: Score::from_bits(5_243),        // 0.08
         free_space_weight: Score::from_bits(131_072), // 2
         min_overlap: Score::from_bits(19_661),        // 0.30
+        search_budget: 12_000,
     };
 }
 

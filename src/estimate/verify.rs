@@ -74,7 +74,7 @@ impl<
         let inv_scale_q16 = ((1u64 << 32) / u64::from(scale_q16)) as u32;
         let separation = Angle::from_steps_q16(((N / 72).max(2) as i64) << 16, N);
         let mut seeds: Vec<Seed, SEEDS> = Vec::new();
-        let (winner, points, near, alpha, u_q8) = {
+        let (winner, points, near, alpha, u_q8, cut) = {
             // A point on the reference's free space costs what the support
             // charges: `free_space_weight` in alignment units, twice that in
             // points (a point scores at most 2).
@@ -88,7 +88,8 @@ impl<
                 grid,
                 free_penalty,
                 inv_scale_q16,
-            );
+            )
+            .with_budget(search_budget(t.search_budget, W * H));
             // 1. Both halves of the strongest distinct peaks, each with the
             //    best translation over the whole window.
             let mut peaks: Vec<&Peak, VERIFY_PEAKS> = Vec::new();
@@ -184,7 +185,7 @@ impl<
                 let p = winner.placement;
                 (p.alpha, shift_q8(p.shift), aligner.near(p.shift))
             };
-            (*winner, aligner.points(), near, alpha, u_q8)
+            (*winner, aligner.points(), near, alpha, u_q8, aligner.cut())
         };
         let max_score = (2 * points).max(1);
         let alignment = |score: u32| {
@@ -210,9 +211,12 @@ impl<
             Some(r) => support - r.support(&t),
             None => support,
         };
-        let confidence = verified_confidence(overlap, gap, &t);
+        let mut confidence = verified_confidence(overlap, gap, &t);
         let status = if overlap < t.min_overlap {
             Status::LowOverlap
+        } else if cut {
+            confidence = confidence.min(Score::from_bits((1 << 15) - 1));
+            Status::SearchCut
         } else if gap < t.decision_gap {
             let near_half_turn = rival.is_some_and(|r| {
                 r.placement
@@ -262,7 +266,7 @@ impl<
         if let Some(prior) = prior {
             if let Some((picked, alone)) = pick_with_prior(&candidates, prior) {
                 chosen = picked;
-                if alone && status != Status::LowOverlap {
+                if alone && !matches!(status, Status::LowOverlap | Status::SearchCut) {
                     status = Status::Confident;
                 }
             }
@@ -321,6 +325,16 @@ impl Seed {
     fn support(&self, t: &Thresholds) -> Score {
         self.agreement.support(t.free_space_weight)
     }
+}
+
+/// The work budget of a `cells`-cell grid: `budget · cells / 128²`
+/// (`u32::MAX` stays: no budget).
+fn search_budget(budget: u32, cells: usize) -> u32 {
+    if budget == u32::MAX {
+        return budget;
+    }
+    let scaled = u64::from(budget) * cells as u64 / (128 * 128);
+    scaled.clamp(1, u64::from(u32::MAX)) as u32
 }
 
 /// Sort key of a support (monotone in it; supports are at least −80).

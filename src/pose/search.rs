@@ -56,6 +56,10 @@ pub(crate) struct Aligner<'a, const W: usize, const H: usize, const RW: usize, c
     /// View points turned by the current rotation, reference cells.
     cells: [Cell; ALIGN_POINTS],
     count: usize,
+    /// Block evaluations (bounds and scores) the searches may still spend.
+    budget: core::cell::Cell<u32>,
+    /// A search stopped because the budget ran out.
+    cut: core::cell::Cell<bool>,
 }
 
 impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
@@ -92,6 +96,35 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
             inv_scale_q16: i64::from(inv_scale_q16),
             cells: [(0, 0); ALIGN_POINTS],
             count: 0,
+            budget: core::cell::Cell::new(u32::MAX),
+            cut: core::cell::Cell::new(false),
+        }
+    }
+
+    /// The aligner with a work budget: its searches spend at most
+    /// `evaluations` bounds and scores in all, then keep what they found.
+    pub(crate) fn with_budget(self, evaluations: u32) -> Self {
+        self.budget.set(evaluations);
+        self
+    }
+
+    /// Whether a search ran out of the work budget.
+    pub(crate) fn cut(&self) -> bool {
+        self.cut.get()
+    }
+
+    /// Takes one block evaluation from the budget; `false` (and the search
+    /// marked cut) when none is left.
+    fn spend(&self) -> bool {
+        match self.budget.get().checked_sub(1) {
+            Some(left) => {
+                self.budget.set(left);
+                true
+            }
+            None => {
+                self.cut.set(true);
+                false
+            }
         }
     }
 
@@ -285,7 +318,9 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
     /// The best integer shift within `[centre − radius, centre + radius]` in
     /// both axes whose score beats `floor`, by branch and bound; `None` if
     /// none beats it. Ties keep the first found (blocks with the higher
-    /// bound first).
+    /// bound first). Each bound and score spends one evaluation of the work
+    /// budget ([`Self::with_budget`]); when it runs out the search returns
+    /// the best found so far and [`Self::cut`] is set.
     pub(crate) fn search(
         &self,
         centre: (i32, i32),
@@ -307,6 +342,9 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
         for i in 0..blocks {
             for j in 0..blocks {
                 let (c0, r0) = (origin.0 + j * side, origin.1 + i * side);
+                if !self.spend() {
+                    return None;
+                }
                 let b = if top == 0 {
                     self.score_above((c0, r0), floor)
                 } else {
@@ -344,6 +382,8 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
                     let (c, r) = (c0 + half * (n as i32 & 1), r0 + half * (n as i32 >> 1));
                     let cb = if c > last.0 || r > last.1 {
                         0
+                    } else if !self.spend() {
+                        return best;
                     } else if k == 1 {
                         self.score_above((c, r), floor)
                     } else {
