@@ -141,7 +141,19 @@ impl<
                 }
             }
             if seeds.is_empty() {
-                return Estimate::no_structure();
+                // No seed: nothing aligned, or the budget ran out first (then
+                // the correlation's best half, unverified, and the status
+                // says why).
+                return match hint.filter(|_| aligner.cut()) {
+                    Some((alpha, _)) => Estimate {
+                        alpha,
+                        status: Status::SearchCut,
+                        correlation: best_score,
+                        half_turn: test,
+                        ..Estimate::no_structure()
+                    },
+                    None => Estimate::no_structure(),
+                };
             }
             sort_descending(&mut seeds, |s| s.placement.score);
             // 2. Local angle search around the strongest seeds: ±10° in
