@@ -225,7 +225,8 @@ class Estimate:
     @property
     def status(self) -> str:
         """``confident``, ``ambiguous_direction``, ``ambiguous_axis``,
-        ``low_overlap``, ``no_structure`` (or ``error`` in a batch)."""
+        ``low_overlap``, ``no_structure``, ``search_cut`` (or ``error`` in a
+        batch)."""
         return self._data["status"]
 
     @property
