@@ -338,10 +338,14 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
         let side = 1i32 << top;
         let blocks = (span + side - 1) / side;
         let origin = (centre.0 - radius, centre.1 - radius);
-        let mut tops: heapless::Vec<(u32, i32, i32), TOP_BLOCKS> = heapless::Vec::new();
+        // Blocks are kept compact (8 bytes) relative to the origin: the
+        // frames of the search are on the deepest stack path.
+        let at = |b: &Block| (origin.0 + i32::from(b.col), origin.1 + i32::from(b.row));
+        let mut tops: heapless::Vec<Block, TOP_BLOCKS> = heapless::Vec::new();
         for i in 0..blocks {
             for j in 0..blocks {
-                let (c0, r0) = (origin.0 + j * side, origin.1 + i * side);
+                let (col, row) = (j * side, i * side);
+                let (c0, r0) = (origin.0 + col, origin.1 + row);
                 if !self.spend() {
                     return None;
                 }
@@ -351,36 +355,39 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
                     self.bound(top, c0, r0, floor)
                 };
                 if b > floor {
-                    let _ = tops.push((b, c0, r0));
+                    let _ = tops.push(Block::new(b, top, col, row));
                 }
             }
         }
         let mut best: Option<((i32, i32), u32)> = None;
         let mut floor = floor;
-        let last = (origin.0 + span - 1, origin.1 + span - 1);
+        let last = span - 1;
         // Highest bound first.
-        sort_descending(&mut tops, |t| t.0);
-        let mut stack: heapless::Vec<(usize, i32, i32, u32), STACK> = heapless::Vec::new();
-        for &(b, c0, r0) in &tops {
-            if b <= floor {
+        sort_descending(&mut tops, |t| u32::from(t.bound));
+        let mut stack: heapless::Vec<Block, STACK> = heapless::Vec::new();
+        for &block in &tops {
+            if u32::from(block.bound) <= floor {
                 break;
             }
-            let _ = stack.push((top, c0, r0, b));
-            while let Some((k, c0, r0, b)) = stack.pop() {
-                if b <= floor || c0 > last.0 || r0 > last.1 {
+            let _ = stack.push(block);
+            while let Some(block) = stack.pop() {
+                let (b, k) = (u32::from(block.bound), usize::from(block.level));
+                if b <= floor || i32::from(block.col) > last || i32::from(block.row) > last {
                     continue;
                 }
                 if k == 0 {
                     // At level 0 the bound is the score.
                     floor = b;
-                    best = Some(((c0, r0), b));
+                    best = Some((at(&block), b));
                     continue;
                 }
                 let half = 1i32 << (k - 1);
-                let mut children = [(0u32, 0i32, 0i32); 4];
+                let mut children = [Block::new(0, 0, 0, 0); 4];
                 for (n, child) in children.iter_mut().enumerate() {
-                    let (c, r) = (c0 + half * (n as i32 & 1), r0 + half * (n as i32 >> 1));
-                    let cb = if c > last.0 || r > last.1 {
+                    let col = i32::from(block.col) + half * (n as i32 & 1);
+                    let row = i32::from(block.row) + half * (n as i32 >> 1);
+                    let (c, r) = (origin.0 + col, origin.1 + row);
+                    let cb = if col > last || row > last {
                         0
                     } else if !self.spend() {
                         return best;
@@ -389,18 +396,40 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
                     } else {
                         self.bound(k - 1, c, r, floor)
                     };
-                    *child = (cb, c, r);
+                    *child = Block::new(cb, k - 1, col, row);
                 }
                 // Push the lowest first so the highest is explored first.
-                children.sort_unstable_by_key(|c| c.0);
-                for (cb, c, r) in children {
-                    if cb > floor {
-                        let _ = stack.push((k - 1, c, r, cb));
+                children.sort_unstable_by_key(|c| c.bound);
+                for child in children {
+                    if u32::from(child.bound) > floor {
+                        let _ = stack.push(child);
                     }
                 }
             }
         }
         best
+    }
+}
+
+/// A block of shifts of the search: `2^level` square from `(col, row)`
+/// cells past the window's origin, with its bound (scores ≤ 2 ×
+/// [`ALIGN_POINTS`] fit 16 bits; offsets ≤ 8 · 2¹¹).
+#[derive(Clone, Copy)]
+struct Block {
+    bound: u16,
+    level: u8,
+    col: u16,
+    row: u16,
+}
+
+impl Block {
+    fn new(bound: u32, level: usize, col: i32, row: i32) -> Self {
+        Self {
+            bound: bound.min(u32::from(u16::MAX)) as u16,
+            level: level as u8,
+            col: col.clamp(0, i32::from(u16::MAX)) as u16,
+            row: row.clamp(0, i32::from(u16::MAX)) as u16,
+        }
     }
 }
 
