@@ -52,8 +52,9 @@ pub struct Figures {
     pub rival: Option<usize>,
 }
 
-/// One compiled configuration: two grids and an estimator per mode.
-pub trait Engine {
+/// One compiled configuration: two grids and an estimator per mode. `Send`:
+/// `--jobs` gives each thread an engine of its own.
+pub trait Engine: Send {
     /// Grid side, cells.
     fn size(&self) -> usize;
     /// θ steps over the full circle.

@@ -16,6 +16,7 @@
 pub mod demo;
 pub mod engine;
 pub mod images;
+pub mod jobs;
 pub mod log;
 pub mod mcu;
 pub mod plot;
@@ -37,6 +38,7 @@ use serde::Serialize;
 
 use engine::{engine, Engine, View, CONFIGURATIONS};
 use images::{Fit, Threshold};
+use jobs::{JobsArgs, Workers};
 use scans::{OutputLine, PairRecord, RasterOptions, Truth};
 use summary::{Method, Summary};
 
@@ -349,6 +351,9 @@ pub struct ScansArgs {
     /// No progress bar or timing line.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Threads.
+    #[command(flatten)]
+    pub jobs: JobsArgs,
     /// How scans become grids.
     #[command(flatten)]
     pub grid: ScanGridArgs,
@@ -783,7 +788,9 @@ pub fn progress(len: usize, quiet: bool) -> ProgressBar {
 }
 
 fn scans_command(args: &ScansArgs) -> Result<usize, Fatal> {
-    let mut engine = args.estimator.engine(args.grid.size)?;
+    let mut workers = Workers::new(args.jobs.threads(), || {
+        args.estimator.engine(args.grid.size)
+    })?;
     let stdout = io::stdout();
     let mut out = BufWriter::new(stdout.lock());
     let mut pooled = Summary::default();
@@ -791,7 +798,7 @@ fn scans_command(args: &ScansArgs) -> Result<usize, Fatal> {
     let several = args.pairs.len() > 1;
     for path in &args.pairs {
         let file = several.then(|| path.display().to_string());
-        let (file_failed, summary) = scans_file(args, path, file, engine.as_mut(), &mut out)?;
+        let (file_failed, summary) = scans_file(args, path, file, &mut workers, &mut out)?;
         failed += file_failed;
         if args.summary {
             eprintln!(
@@ -839,13 +846,25 @@ fn setup_line(args: &ScansArgs) -> String {
     )
 }
 
+/// What the estimating threads make of one line of a pair file.
+struct LineResult {
+    /// The scans, parsed.
+    pair: Result<PairRecord, String>,
+    /// The estimates in each mode.
+    result: Result<Vec<scans::PairEstimate>, String>,
+    /// The ground truth (`--summary` only).
+    truth: Option<Result<Truth, String>>,
+}
+
 /// Estimates every pair of one file, writing the JSON lines to `out`;
-/// returns the failed lines and the file's summary.
+/// returns the failed lines and the file's summary. The lines are estimated
+/// in batches spread over `workers`, and each batch is written (and summed
+/// up) in the file's order.
 fn scans_file(
     args: &ScansArgs,
     path: &Path,
     file: Option<String>,
-    engine: &mut dyn Engine,
+    workers: &mut Workers<Box<dyn Engine>>,
     out: &mut impl Write,
 ) -> Result<(usize, Summary), Fatal> {
     let options = args.grid.options()?;
@@ -868,55 +887,75 @@ fn scans_file(
     let mut summary = Summary::default();
     let mut failed = 0;
     let start = Instant::now();
-    for (index, line) in lines.iter().enumerate() {
-        bar.inc(1);
-        let pair = serde_json::from_slice::<PairRecord>(line)
-            .map_err(|e| format!("line {}: malformed pair: {e}", index + 1));
-        let result = pair.as_ref().map_err(Clone::clone).and_then(|pair| {
-            scans::estimate(engine, pair, &options, &modes)
-                .map_err(|e| format!("line {}: {e}", index + 1))
-        });
-        let mut output = match &result {
-            Ok(estimates) => OutputLine::of(index, &estimates[0]),
-            Err(message) => {
-                failed += 1;
-                bar.suspend(|| eprintln!("hough-heading: {}: {message}", path.display()));
-                OutputLine::error(index, message.clone())
+    let batch = workers.batch();
+    for (batch_index, batch_lines) in lines.chunks(batch).enumerate() {
+        let first = batch_index * batch;
+        let results = workers.map(batch_lines, |engine, i, line| {
+            let index = first + i;
+            let pair = serde_json::from_slice::<PairRecord>(line)
+                .map_err(|e| format!("line {}: malformed pair: {e}", index + 1));
+            let result = pair.as_ref().map_err(Clone::clone).and_then(|pair| {
+                scans::estimate(engine.as_mut(), pair, &options, &modes)
+                    .map_err(|e| format!("line {}: {e}", index + 1))
+            });
+            let truth = (args.summary && result.is_ok() && pair.is_ok())
+                .then(|| serde_json::from_slice::<Truth>(line).map_err(|e| e.to_string()));
+            bar.inc(1);
+            LineResult {
+                pair,
+                result,
+                truth,
             }
-        };
-        output.file.clone_from(&file);
-        let text =
-            serde_json::to_string(&output).map_err(|e| Fatal::io(format!("JSON output: {e}")))?;
-        if writeln!(out, "{text}").is_err() {
-            // stdout closed (e.g. piped into `head`): stop quietly.
-            return Ok((failed, summary));
-        }
-        if args.summary {
-            match (&result, &pair, serde_json::from_slice::<Truth>(line)) {
-                (Ok(estimates), Ok(pair), Ok(truth)) => {
-                    let with_methods: Vec<(Method, &scans::PairEstimate)> = modes
-                        .iter()
-                        .zip(estimates)
-                        .map(|(m, e)| {
-                            let method = match m {
-                                Mode::Improved => Method::Improved,
-                                Mode::Paper => Method::Paper,
-                            };
-                            (method, e)
-                        })
-                        .collect();
-                    summary.add(index, &truth, pair, &with_methods);
+        });
+        for (i, line) in results.into_iter().enumerate() {
+            let index = first + i;
+            let LineResult {
+                pair,
+                result,
+                truth,
+            } = line;
+            let mut output = match &result {
+                Ok(estimates) => OutputLine::of(index, &estimates[0]),
+                Err(message) => {
+                    failed += 1;
+                    bar.suspend(|| eprintln!("hough-heading: {}: {message}", path.display()));
+                    OutputLine::error(index, message.clone())
                 }
-                (Ok(_), _, Err(e)) => {
-                    bar.suspend(|| {
-                        eprintln!(
-                            "hough-heading: line {}: no ground truth ({e}); not in the summary",
-                            index + 1
-                        )
-                    });
-                    summary.add_error();
+            };
+            output.file.clone_from(&file);
+            let text = serde_json::to_string(&output)
+                .map_err(|e| Fatal::io(format!("JSON output: {e}")))?;
+            if writeln!(out, "{text}").is_err() {
+                // stdout closed (e.g. piped into `head`): stop quietly.
+                return Ok((failed, summary));
+            }
+            if args.summary {
+                match (&result, &pair, truth) {
+                    (Ok(estimates), Ok(pair), Some(Ok(truth))) => {
+                        let with_methods: Vec<(Method, &scans::PairEstimate)> = modes
+                            .iter()
+                            .zip(estimates)
+                            .map(|(m, e)| {
+                                let method = match m {
+                                    Mode::Improved => Method::Improved,
+                                    Mode::Paper => Method::Paper,
+                                };
+                                (method, e)
+                            })
+                            .collect();
+                        summary.add(index, &truth, pair, &with_methods);
+                    }
+                    (Ok(_), _, Some(Err(e))) => {
+                        bar.suspend(|| {
+                            eprintln!(
+                                "hough-heading: line {}: no ground truth ({e}); not in the summary",
+                                index + 1
+                            )
+                        });
+                        summary.add_error();
+                    }
+                    _ => summary.add_error(),
                 }
-                _ => summary.add_error(),
             }
         }
     }
@@ -924,13 +963,15 @@ fn scans_file(
     bar.finish_and_clear();
     let elapsed = start.elapsed().as_secs_f64();
     if !args.quiet {
+        let threads = workers.threads();
         eprintln!(
             "hough-heading: {}: {} pairs ({failed} failed) in {elapsed:.2} s: {:.0} pairs/s, {} mode(s), \
-             one thread",
+             {threads} thread{}",
             path.display(),
             lines.len(),
             lines.len() as f64 / elapsed.max(1e-9),
-            modes.len()
+            modes.len(),
+            if threads == 1 { "" } else { "s" }
         );
     }
     Ok((failed, summary))

@@ -20,7 +20,7 @@ use std::collections::VecDeque;
 use std::fs::File;
 use std::io::{self, BufRead, BufReader, BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
-use std::rc::Rc;
+use std::sync::Arc;
 use std::time::Instant;
 
 use clap::{Args, ValueEnum};
@@ -29,6 +29,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
 use super::engine::Engine;
+use super::jobs::{JobsArgs, Workers};
 use super::scans::{self, Check, OutputLine, PairRecord, RasterOptions, ScanRecord, Truth};
 use super::summary::{Method, Summary};
 use super::{EstimatorArgs, Fatal, ScanGridArgs};
@@ -252,6 +253,9 @@ pub struct LogArgs {
     /// No progress bar or timing line.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Threads.
+    #[command(flatten)]
+    pub jobs: JobsArgs,
     /// How scans become grids.
     #[command(flatten)]
     pub grid: ScanGridArgs,
@@ -306,15 +310,44 @@ pub struct LogLine {
 }
 
 /// A scan kept for pairing, with its index.
-type Kept = (usize, Rc<LogScan>);
+type Kept = (usize, Arc<LogScan>);
+
+/// A pair waiting for its estimate: the two scans and what the log says
+/// about their motion.
+struct PairJob {
+    a: Kept,
+    b: Kept,
+    /// The odometry's delta.
+    odom: Option<Pose>,
+    /// The log's own poses' delta.
+    log_pose: Option<Pose>,
+    /// The prior on the rotation (`--prior odom`).
+    prior: Option<Prior>,
+    /// The two scans as a pair file's line.
+    pair: PairRecord,
+}
+
+/// What waits to be written, in the order of the recording.
+enum Pending {
+    /// A pair to estimate.
+    Pair(Box<PairJob>),
+    /// A record that could not be used.
+    Error(RecordError),
+}
 
 struct Run<'a> {
     args: &'a LogArgs,
     file: String,
-    engine: Box<dyn Engine>,
+    workers: Workers<Box<dyn Engine>>,
     options: RasterOptions,
     mode: Mode,
     out: BufWriter<io::StdoutLock<'static>>,
+    /// Pairs and record errors not yet written: the pairs are estimated a
+    /// batch at a time ([`Workers::batch`]), then everything is written in
+    /// order.
+    pending: Vec<Pending>,
+    /// Pairs among `pending`.
+    pending_pairs: usize,
     pairs: usize,
     failed: usize,
     summary: Summary,
@@ -324,6 +357,11 @@ struct Run<'a> {
 }
 
 impl Run<'_> {
+    /// Reports a record that could not be used, after the pairs before it.
+    fn record_error(&mut self, error: RecordError) {
+        self.pending.push(Pending::Error(error));
+    }
+
     fn report(&mut self, error: &RecordError) {
         self.failed += 1;
         let text = format!(
@@ -333,7 +371,7 @@ impl Run<'_> {
         self.bar.suspend(|| eprintln!("{text}"));
     }
 
-    /// Estimates one pair and writes its line.
+    /// Queues one pair; a full batch is estimated and written.
     fn pair(&mut self, a: &Kept, b: &Kept) -> Result<(), Fatal> {
         let (s1, s2) = (&a.1, &b.1);
         let odom = s1.odom.zip(s2.odom).map(|(p, q)| p.between(&q));
@@ -349,13 +387,63 @@ impl Run<'_> {
             scan1: s1.record.clone(),
             scan2: s2.record.clone(),
         };
-        let result = scans::estimate_with_prior(
-            self.engine.as_mut(),
-            &pair,
-            &self.options,
-            &[self.mode],
+        self.pending.push(Pending::Pair(Box::new(PairJob {
+            a: a.clone(),
+            b: b.clone(),
+            odom,
+            log_pose,
             prior,
-        );
+            pair,
+        })));
+        self.pending_pairs += 1;
+        if self.pending_pairs >= self.workers.batch() {
+            self.flush()?;
+        }
+        Ok(())
+    }
+
+    /// Estimates the pending pairs (on every worker) and writes them and the
+    /// pending record errors in order.
+    fn flush(&mut self) -> Result<(), Fatal> {
+        let pending = std::mem::take(&mut self.pending);
+        self.pending_pairs = 0;
+        let (options, mode) = (self.options, self.mode);
+        let results = self.workers.map(&pending, |engine, _, item| match item {
+            Pending::Pair(job) => Some(scans::estimate_with_prior(
+                engine.as_mut(),
+                &job.pair,
+                &options,
+                &[mode],
+                job.prior,
+            )),
+            Pending::Error(_) => None,
+        });
+        for (item, result) in pending.into_iter().zip(results) {
+            match (item, result) {
+                (Pending::Pair(job), Some(result)) => self.write(&job, result)?,
+                (Pending::Error(error), _) => self.report(&error),
+                (Pending::Pair(_), None) => unreachable!("every pair is estimated"),
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes one estimated pair's line, and adds it to the trajectory and
+    /// the summary.
+    fn write(
+        &mut self,
+        job: &PairJob,
+        result: Result<Vec<scans::PairEstimate>, String>,
+    ) -> Result<(), Fatal> {
+        let PairJob {
+            a,
+            b,
+            odom,
+            log_pose,
+            pair,
+            ..
+        } = job;
+        let (s1, s2) = (&a.1, &b.1);
         let index = self.pairs;
         self.pairs += 1;
         let line = match &result {
@@ -367,7 +455,7 @@ impl Run<'_> {
             }
         };
         if let Some(t) = &mut self.trajectory {
-            t.add(a, b, result.as_ref().ok().map(|e| &e[0]), odom);
+            t.add(a, b, result.as_ref().ok().map(|e| &e[0]), *odom);
         }
         if self.args.summary {
             match (&result, log_pose) {
@@ -383,7 +471,7 @@ impl Run<'_> {
                         Mode::Paper => Method::Paper,
                     };
                     self.summary
-                        .add(index, &truth, &pair, &[(method, &estimates[0])]);
+                        .add(index, &truth, pair, &[(method, &estimates[0])]);
                 }
                 _ => self.summary.add_error(),
             }
@@ -497,10 +585,14 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
     let mut run = Run {
         args,
         file: file.clone(),
-        engine: args.estimator.engine(args.grid.size)?,
+        workers: Workers::new(args.jobs.threads(), || {
+            args.estimator.engine(args.grid.size)
+        })?,
         options: args.grid.options()?,
         mode: args.estimator.mode.into(),
         out: BufWriter::new(io::stdout().lock()),
+        pending: Vec::new(),
+        pending_pairs: 0,
         pairs: 0,
         failed: 0,
         summary: Summary::default(),
@@ -659,8 +751,21 @@ pub fn choose_topics(
     Ok((topic, odom))
 }
 
-/// Pairs the scans of `events` as asked; the number of scans read.
+/// Pairs the scans of `events` as asked; the number of scans read. Every
+/// pair before the end (or a fatal error) is estimated and written.
 fn stream(
+    run: &mut Run<'_>,
+    events: impl Iterator<Item = Result<Result<Event, RecordError>, Fatal>>,
+) -> Result<usize, Fatal> {
+    let scans = stream_pairs(run, events);
+    let flushed = run.flush();
+    let scans = scans?;
+    flushed?;
+    Ok(scans)
+}
+
+/// [`stream`] without the last batch.
+fn stream_pairs(
     run: &mut Run<'_>,
     events: impl Iterator<Item = Result<Result<Event, RecordError>, Fatal>>,
 ) -> Result<usize, Fatal> {
@@ -672,7 +777,7 @@ fn stream(
     for event in events {
         let mut scan = match event? {
             Err(e) => {
-                run.report(&e);
+                run.record_error(e);
                 continue;
             }
             Ok(Event::Odometry { pose, .. }) => {
@@ -692,7 +797,7 @@ fn stream(
         if scan.odom.is_none() {
             scan.odom = last_odom;
         }
-        let current: Kept = (index, Rc::new(scan));
+        let current: Kept = (index, Arc::new(scan));
         run.bar.set_message(format!("scan {index}"));
         match args.pairs {
             PairsArg::Consecutive => {
