@@ -320,15 +320,18 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
     /// none beats it. Ties keep the first found (blocks with the higher
     /// bound first). Each bound and score spends one evaluation of the work
     /// budget ([`Self::with_budget`]); when it runs out the search returns
-    /// the best found so far and [`Self::cut`] is set.
+    /// the best found so far and [`Self::cut`] is set. The radius is
+    /// clamped to `2^(L+1)` cells (`L` the pyramid's levels: at least half
+    /// the grid's larger side; the default window, ¼ of the ρ range, is
+    /// that), so that at most 5 × 5 top blocks cover the window.
     pub(crate) fn search(
         &self,
         centre: (i32, i32),
         radius: i32,
         floor: u32,
     ) -> Option<((i32, i32), u32)> {
-        // At most 8 × 8 top blocks of the largest pyramid level.
-        let radius = radius.clamp(0, (7 << Pyramid::<W, H, PW>::LEVELS) / 2);
+        // At most 5 × 5 top blocks of the largest pyramid level.
+        let radius = radius.clamp(0, 2 << Pyramid::<W, H, PW>::LEVELS);
         let span = 2 * radius + 1;
         // Top level: blocks at most a quarter of the window, within the pyramid.
         let mut top = 0usize;
@@ -437,8 +440,9 @@ impl Block {
 /// rows and bits a point).
 const EXACT_LEVELS: usize = 3;
 
-/// Most top-level blocks of one search (window ≤ 4·2ᴸ + … per axis).
-const TOP_BLOCKS: usize = 64;
+/// Most top-level blocks of one search (a window of at most `4·2ᴸ + 1`
+/// cells per axis in blocks of `2^top`, `4·2^top` ≥ the window or `top = L`).
+const TOP_BLOCKS: usize = 25;
 /// Depth-first stack: 4 children per level, 12 levels at most (W ≤ 2048).
 const STACK: usize = 48;
 

@@ -279,7 +279,10 @@ fn table_page(table: &str) -> String {
          minus the unverified one's. *overlap*: `Estimate::overlap` of the verified estimate. \
          *reference in flash*: without the verification and with the reference a `static` parsed \
          at compile time (`Reference::from_bytes` is a `const fn`; `examples/robot_loop.rs` runs \
-         so), the RAM is `size_of` the estimator plus the unverified estimate's peak stack.\n\
+         so), the RAM is `size_of` the estimator plus the unverified estimate's peak stack; \
+         *verified, reference in flash*: the same with the verification, whose pyramid is on the \
+         stack and which reads the reference's grid where it lies: `size_of` the estimator plus \
+         the verified estimate's peak stack (`ram_verified_flash_reference`).\n\
          - *static RAM*: `.data + .bss` of the whole firmware (logger, runtime); the library has none. \
          *library flash*: flash of the firmware minus the same firmware built without calling the \
          library (`HH_BENCH_BASELINE=1`) minus the two grids.\n\
