@@ -4,6 +4,7 @@
 use crate::angle::Angle;
 use crate::config::icp_points;
 use crate::grid::Grid;
+use crate::pose::pyramid::bits;
 use crate::pose::search::{centred_q1, rotate_inverse_q16, sampled_cells, scaled, Placement};
 use crate::trig::sin_cos_q15;
 
@@ -120,11 +121,12 @@ fn nearest_occupied<const W: usize, const H: usize, const RW: usize>(
     let (c, r) = ((col_q8 + 128) >> 8, (row_q8 + 128) >> 8);
     let mut best: Option<(i64, Match)> = None;
     for dr in -1..=1 {
-        for dc in -1..=1 {
+        // The three cells of the row at once (columns outside read clear).
+        let mut occupied = neighbourhood_row(grid, c - 1, r + dr, 3);
+        while occupied != 0 {
+            let dc = i64::from(occupied.trailing_zeros()) - 1;
+            occupied &= occupied - 1;
             let (cc, rr) = (c + dc, r + dr);
-            if cc < 0 || rr < 0 || !grid.get(cc as usize, rr as usize) {
-                continue;
-            }
             let (ex, ey) = ((cc << 8) - col_q8, (rr << 8) - row_q8);
             let d = ex * ex + ey * ey;
             if best.is_none_or(|(bd, _)| d < bd) {
@@ -139,6 +141,21 @@ fn nearest_occupied<const W: usize, const H: usize, const RW: usize>(
     best.map(|(_, m)| m)
 }
 
+/// The occupancy of the `n` cells of row `row` from column `col` (bit `j`:
+/// column `col + j`); rows and columns outside the grid read clear.
+fn neighbourhood_row<const W: usize, const H: usize, const RW: usize>(
+    grid: &Grid<W, H, RW>,
+    col: i64,
+    row: i64,
+    n: u32,
+) -> u32 {
+    let words = usize::try_from(row).ok().and_then(|r| grid.words().get(r));
+    match (words, i32::try_from(col)) {
+        (Some(words), Ok(col)) => bits(words, col, n),
+        _ => 0,
+    }
+}
+
 /// Unit normal (Q14, centred y-up frame) of the line the occupied cells
 /// within 2 cells of `(col, row)` form: the minor axis of their scatter.
 /// `None` with fewer than 3 cells or no clear direction (the major axis'
@@ -149,11 +166,10 @@ fn local_normal<const W: usize, const H: usize, const RW: usize>(
 ) -> Option<(i64, i64)> {
     let (mut n, mut sx, mut sy, mut sxx, mut syy, mut sxy) = (0i64, 0i64, 0i64, 0i64, 0i64, 0i64);
     for dr in -2i64..=2 {
-        for dc in -2i64..=2 {
-            let (cc, rr) = (c + dc, r + dr);
-            if cc < 0 || rr < 0 || !grid.get(cc as usize, rr as usize) {
-                continue;
-            }
+        let mut occupied = neighbourhood_row(grid, c - 2, r + dr, 5);
+        while occupied != 0 {
+            let dc = i64::from(occupied.trailing_zeros()) - 2;
+            occupied &= occupied - 1;
             // y up: Δy = −Δrow.
             let (dx, dy) = (dc, -dr);
             n += 1;
