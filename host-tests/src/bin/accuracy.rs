@@ -382,8 +382,8 @@ fn status_breakdown(results: &[(Row, Vec<Outcome>)]) -> String {
          \"half turn right when confident\": for corridors and centrally symmetric scenes, the \
          share of `Confident` results that are right over the full circle (not only modulo \
          180°).\n\n\
-         | row | confident | ambiguous axis | ambiguous direction | low overlap | no structure | t unobservable | half turn right when confident |\n\
-         |---|---|---|---|---|---|---|---|\n",
+         | row | confident | ambiguous axis | ambiguous direction | low overlap | no structure | search cut | t unobservable | half turn right when confident |\n\
+         |---|---|---|---|---|---|---|---|---|\n",
     );
     for (row, outcomes) in results {
         let n = outcomes.len().max(1) as f64;
@@ -407,13 +407,14 @@ fn status_breakdown(results: &[(Row, Vec<Outcome>)]) -> String {
             f64::NAN
         };
         out.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
             row.label(),
             pct(share(Status::Confident)),
             pct(share(Status::AmbiguousAxis)),
             pct(share(Status::AmbiguousDirection)),
             pct(share(Status::LowOverlap)),
             pct(share(Status::NoStructure)),
+            pct(share(Status::SearchCut)),
             pct(unobservable),
             pct(right),
         ));
