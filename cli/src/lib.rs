@@ -159,7 +159,7 @@ pub struct EstimatorArgs {
     pub min_overlap: Option<f64>,
     /// Tuning (verification): the most bound and score evaluations the
     /// translation searches of one estimate may spend before the status
-    /// becomes `search_cut` (library default 12000; 4294967295: none).
+    /// becomes `search_cut` (library default 60000; 4294967295: none).
     #[arg(long, value_name = "EVALUATIONS")]
     pub search_budget: Option<u32>,
 }

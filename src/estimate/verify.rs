@@ -89,7 +89,7 @@ impl<
                 free_penalty,
                 inv_scale_q16,
             )
-            .with_budget(search_budget(t.search_budget, W * H));
+            .with_budget(t.search_budget);
             // 1. Both halves of the strongest distinct peaks, each with the
             //    best translation over the whole window.
             let mut peaks: Vec<&Peak, VERIFY_PEAKS> = Vec::new();
@@ -337,16 +337,6 @@ impl Seed {
     fn support(&self, t: &Thresholds) -> Score {
         self.agreement.support(t.free_space_weight)
     }
-}
-
-/// The work budget of a `cells`-cell grid: `budget · cells / 128²`
-/// (`u32::MAX` stays: no budget).
-fn search_budget(budget: u32, cells: usize) -> u32 {
-    if budget == u32::MAX {
-        return budget;
-    }
-    let scaled = u64::from(budget) * cells as u64 / (128 * 128);
-    scaled.clamp(1, u64::from(u32::MAX)) as u32
 }
 
 /// Sort key of a support (monotone in it; supports are at least −80).
