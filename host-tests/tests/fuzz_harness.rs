@@ -60,7 +60,8 @@ mod common;
 /// `adversarial.rs`): ratios and margins in [0, 2] with at least 1/1024,
 /// shift fractions and the minimum overlap in [0, 1], the alignment ratio in
 /// [0, 2]; the decision gap and the free-space weight from just below 0 to
-/// beyond their clamps.
+/// beyond their clamps; a work budget from none left to a few thousand
+/// evaluations, or none at all.
 fn thresholds() -> impl Strategy<Value = Thresholds> {
     (
         0i32..=2 << 16,
@@ -69,9 +70,13 @@ fn thresholds() -> impl Strategy<Value = Thresholds> {
         0i32..=1 << 16,
         0i32..=2 << 16,
         0i32..=1 << 16,
-        (-1i32..=1 << 16, -1i32..=70 << 16),
+        (
+            -1i32..=1 << 16,
+            -1i32..=70 << 16,
+            prop_oneof![0u32..3000, Just(u32::MAX)],
+        ),
     )
-        .prop_map(|(r, d, m, s, a, o, (g, f))| Thresholds {
+        .prop_map(|(r, d, m, s, a, o, (g, f, b))| Thresholds {
             rival_ratio: Score::from_bits(r),
             direction_margin: Score::from_bits(d),
             min_occupied: m,
@@ -80,6 +85,7 @@ fn thresholds() -> impl Strategy<Value = Thresholds> {
             min_overlap: Score::from_bits(o),
             decision_gap: Score::from_bits(g),
             free_space_weight: Score::from_bits(f),
+            search_budget: b,
         })
 }
 

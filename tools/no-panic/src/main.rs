@@ -85,6 +85,7 @@ fn opaque_thresholds() -> Thresholds {
         min_overlap: Score::from_bits(opaque(0)),
         decision_gap: Score::from_bits(opaque(0)),
         free_space_weight: Score::from_bits(opaque(0)),
+        search_budget: opaque(0),
     }
 }
 
