@@ -103,8 +103,11 @@ pub fn check(
         "{e:?}"
     );
     let has_alignments = e.candidates.iter().any(|c| c.alignment.is_some());
+    // A work budget that ran out before any candidate was scored leaves the
+    // correlation's answer alone, without candidates.
+    let unscored = e.status == Status::SearchCut && e.candidates.is_empty();
     if let Some(verified) = verified {
-        if e.status != Status::NoStructure {
+        if e.status != Status::NoStructure && !unscored {
             prop_assert_eq!(has_alignments, verified, "{:?}", e);
         }
     }
@@ -138,7 +141,7 @@ pub fn check(
     }
     if e.status == Status::NoStructure {
         prop_assert!(e.candidates.is_empty() && e.translation.is_none(), "{e:?}");
-    } else if !prior {
+    } else if !prior && !unscored {
         prop_assert!(e.candidates.iter().any(|c| c.alpha == e.alpha), "{e:?}");
     }
     Ok(())

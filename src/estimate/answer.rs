@@ -31,7 +31,9 @@ pub enum Status {
     /// The verification's translation searches ran out of their work
     /// budget ([`Thresholds::search_budget`]) before they finished: the
     /// answer is the best pose found, but rivals may not have been searched
-    /// to the end, so it is not confident (confidence below ½).
+    /// to the end, so it is not confident (confidence below ½). When it ran
+    /// out before any candidate was scored, `alpha` is the correlation's
+    /// best half, unverified, and `candidates` is empty.
     SearchCut,
 }
 
