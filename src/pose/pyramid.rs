@@ -130,6 +130,11 @@ pub(crate) fn any_in_columns<const RW: usize>(rows: &[[u32; RW]], lo: i32, n: u3
     let mask = (1u32 << n) - 1;
     let index = |i: i32| usize::try_from(i).ok().filter(|&i| i < RW);
     match (index(w), index(w + 1)) {
+        // Columns within one word: one read a row.
+        (Some(i), _) if b + n <= 32 => {
+            let mask = mask << b;
+            rows.iter().any(|r| r[i] & mask != 0)
+        }
         (Some(i), Some(j)) if b > 0 => rows
             .iter()
             .any(|r| ((r[i] >> b) | (r[j] << (32 - b))) & mask != 0),
