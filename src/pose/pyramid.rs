@@ -117,7 +117,12 @@ pub(crate) fn bits(row: &[u32], lo: i32, n: u32) -> u32 {
             .unwrap_or(0)
     };
     let low = word(w) >> b;
-    let high = if b == 0 { 0 } else { word(w + 1) << (32 - b) };
+    // The next word only when the columns run into it.
+    let high = if b + n <= 32 {
+        0
+    } else {
+        word(w + 1) << (32 - b)
+    };
     (low | high) & ((1u32 << n) - 1)
 }
 
