@@ -4,7 +4,7 @@
 use crate::angle::Angle;
 use crate::config::icp_points;
 use crate::grid::Grid;
-use crate::pose::pyramid::bits;
+use crate::pose::pyramid::grid_bits;
 use crate::pose::search::{centred_q1, rotate_inverse_q16, sampled_cells, scaled, Placement};
 use crate::trig::sin_cos_q15;
 
@@ -141,17 +141,16 @@ fn nearest_occupied<const W: usize, const H: usize, const RW: usize>(
     best.map(|(_, m)| m)
 }
 
-/// The occupancy of the `n` cells of row `row` from column `col` (bit `j`:
-/// column `col + j`); rows and columns outside the grid read clear.
+/// [`grid_bits`] at `i64` coordinates (those of the ICP): beyond `i32`
+/// they are outside the grid and read clear.
 fn neighbourhood_row<const W: usize, const H: usize, const RW: usize>(
     grid: &Grid<W, H, RW>,
     col: i64,
     row: i64,
     n: u32,
 ) -> u32 {
-    let words = usize::try_from(row).ok().and_then(|r| grid.words().get(r));
-    match (words, i32::try_from(col)) {
-        (Some(words), Ok(col)) => bits(words, col, n),
+    match (i32::try_from(col), i32::try_from(row)) {
+        (Ok(col), Ok(row)) => grid_bits(grid, col, row, n),
         _ => 0,
     }
 }

@@ -126,6 +126,21 @@ pub(crate) fn bits(row: &[u32], lo: i32, n: u32) -> u32 {
     (low | high) & ((1u32 << n) - 1)
 }
 
+/// [`bits`] of row `row` of `grid`: columns `col..col + n` (`n ≤ 31`), bit
+/// 0 = column `col`; rows and columns outside the grid read clear.
+#[inline]
+pub(crate) fn grid_bits<const W: usize, const H: usize, const RW: usize>(
+    grid: &Grid<W, H, RW>,
+    col: i32,
+    row: i32,
+    n: u32,
+) -> u32 {
+    usize::try_from(row)
+        .ok()
+        .and_then(|r| grid.words().get(r))
+        .map_or(0, |words| bits(words, col, n))
+}
+
 /// Whether any of `rows` has a bit in columns `lo..lo + n` (`n ≤ 31`): the
 /// word index and shift are computed once for all rows.
 #[inline]

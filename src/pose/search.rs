@@ -22,7 +22,7 @@ use crate::angle::Angle;
 use crate::config::{align_points, ALIGN_POINTS};
 use crate::grid::Grid;
 use crate::math::sort_descending;
-use crate::pose::pyramid::{all_in_columns, any_in_columns, bits, Pyramid};
+use crate::pose::pyramid::{all_in_columns, any_in_columns, bits, grid_bits, Pyramid};
 use crate::trig::sin_cos_q15;
 
 /// A point of image 2 turned into the reference frame, in reference cells
@@ -268,11 +268,10 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
         // widened), all set, all inside the grid.
         let free_throughout = |(c, r): Cell| {
             let (a, b) = (i32::from(c) + c0, i32::from(r) + r0);
-            let block = free
-                .words()
-                .get(b.max(0) as usize..(b + side).clamp(0, H as i32) as usize)
-                .unwrap_or(&[]);
-            b >= 0 && b + side <= H as i32 && all_in_columns(block, a, side as u32)
+            let block = usize::try_from(b)
+                .ok()
+                .and_then(|b| free.words().get(b..b + side as usize));
+            block.is_some_and(|rows| all_in_columns(rows, a, side as u32))
         };
         // What the block can still score: 2 a point not yet missed, less
         // the certain penalties.
@@ -455,18 +454,11 @@ pub(crate) fn point_score<const W: usize, const H: usize, const RW: usize>(
     c: i32,
     r: i32,
 ) -> u32 {
-    let rows = grid.words();
-    let row = |r: i32| -> &[u32] {
-        if r < 0 {
-            &[]
-        } else {
-            rows.get(r as usize).map_or(&[], |w| w.as_slice())
-        }
-    };
-    let middle = bits(row(r), c - 1, 3);
+    let row = |r: i32| grid_bits(grid, c - 1, r, 3);
+    let middle = row(r);
     if middle & 2 != 0 {
         2
-    } else if middle != 0 || bits(row(r - 1), c - 1, 3) != 0 || bits(row(r + 1), c - 1, 3) != 0 {
+    } else if middle != 0 || row(r - 1) != 0 || row(r + 1) != 0 {
         1
     } else {
         0
