@@ -113,16 +113,17 @@ impl Row {
             self.size,
             self.damage.0,
             if self.independent { " indep." } else { "" },
-            self.scale_note()
+            self.scale_text().0
         )
     }
 
-    /// How the row's scale shows in labels.
-    fn scale_note(&self) -> &'static str {
+    /// How the row's scale shows: in its label, and in the table's scale
+    /// column.
+    fn scale_text(&self) -> (&'static str, &'static str) {
         match (self.with_scale, self.scale_search) {
-            (false, _) => " (s = 1)",
-            (true, true) => "",
-            (true, false) => " (s 0.9–1.1 unmodelled)",
+            (false, _) => (" (s = 1)", "1"),
+            (true, true) => ("", "0.9–1.1"),
+            (true, false) => (" (s 0.9–1.1 unmodelled)", "0.9–1.1, not searched"),
         }
     }
 
@@ -320,12 +321,7 @@ fn table_line(row: &Row, pipeline: Pipeline, s: &Summary) -> String {
         ),
         format!("{}²", row.size),
         row.damage.0.to_string(),
-        match (row.with_scale, row.scale_search) {
-            (false, _) => "1",
-            (true, true) => "0.9–1.1",
-            (true, false) => "0.9–1.1, not searched",
-        }
-        .into(),
+        row.scale_text().1.into(),
         match pipeline {
             Pipeline::Paper => "paper",
             Pipeline::Unverified => "improved, no verification",
