@@ -136,7 +136,7 @@ pub use grid::Grid;
 pub use motion::Motion;
 pub use pose::scale::ScaleRange;
 pub use pose::Pose;
-pub use reference::Reference;
+pub use reference::{Reference, ScanReference};
 pub use scan::{FreeSpace, Raster, Scan, ScanStats, SensorOffset};
 
 /// The pipeline's stages on their own, below the [`Estimator`]: Hough votes,
@@ -157,7 +157,7 @@ pub mod stages {
     pub use crate::profile::{
         match_profile, match_profile_near, ProfileMatch, Shift, RUNNERS_UP, RUNNER_UP_SEPARATION,
     };
-    pub use crate::reference::{Profile, PROFILE_COLUMNS, REFERENCE_FORMAT};
+    pub use crate::reference::{Profile, PROFILE_COLUMNS, REFERENCE_FORMAT, SCAN_REFERENCE_FORMAT};
     pub use crate::scan::{
         range_percentile, BeamEnd, ScanBeams, AUTO_MAX_RADIUS_M, AUTO_MIN_RADIUS_M,
         AUTO_PERCENTILE, BEAM_FAR_CELLS, BEAM_NEAR_CELLS, FREE_MARGIN_CELLS, FREE_MARGIN_SHIFT,
@@ -205,6 +205,20 @@ macro_rules! estimator {
 macro_rules! reference {
     ($w:expr, $h:expr, $n:expr) => {
         $crate::Reference<
+            { $w },
+            { $h },
+            { $crate::config::row_words($w) },
+            { $crate::config::half_turn_steps($n) },
+            { $crate::config::rho_bins($w, $h) },
+        >
+    };
+}
+
+/// The [`ScanReference`] type matching `estimator!(W, H, N_THETA)`.
+#[macro_export]
+macro_rules! scan_reference {
+    ($w:expr, $h:expr, $n:expr) => {
+        $crate::ScanReference<
             { $w },
             { $h },
             { $crate::config::row_words($w) },

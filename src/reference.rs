@@ -10,6 +10,9 @@ use crate::error::Error;
 use crate::grid::Grid;
 use crate::signature::{PeakKind, Signature};
 
+mod scan;
+pub use scan::{ScanReference, SCAN_REFERENCE_FORMAT};
+
 /// How many θ columns of the reference keep their ρ-profile.
 pub const PROFILE_COLUMNS: usize = 4;
 

@@ -17,6 +17,9 @@
 //!    (checksum recomputed; accepted exactly when the grid agrees with the
 //!    stored count and has no cell beyond `W`), each accepted reference then
 //!    used to estimate with and without the verification;
+//!    `ScanReference::from_bytes` alike (arbitrary bytes; mutated valid scan
+//!    references with both checksums recomputed, each accepted one
+//!    written back, read again and estimated on scans);
 //! 3. the matching functions (`Correlation::of`, `match_profile`,
 //!    `paper_asymmetry`, `ColumnStats::of`, `fit_translation`) and `Angle` on
 //!    arbitrary values;
@@ -50,7 +53,7 @@ use hough_heading::{
     stages::paper_asymmetry, stages::range_percentile, stages::ColumnShift, stages::ColumnStats,
     stages::Correlation, stages::PeakKind, stages::Shift, stages::Signature,
     stages::MAX_FIT_COLUMNS, stages::RUNNERS_UP, Angle, Estimator, FreeSpace, Grid, Mode, Prior,
-    Raster, Reference, ScaleRange, Scan, Score, SensorOffset, Status, Thresholds,
+    Raster, Reference, ScaleRange, Scan, ScanReference, Score, SensorOffset, Status, Thresholds,
 };
 use proptest::prelude::*;
 
@@ -314,6 +317,84 @@ fn fuzz_reference_from_bytes() {
         },
     );
     println!("  of which accepted and estimated: {}", accepted.get());
+}
+
+#[test]
+fn fuzz_scan_reference_from_bytes() {
+    const HALF: usize = 64;
+    const RHO: usize = rho_bins(64, 64);
+    type R = Reference<64, 64, 2, HALF, RHO>;
+    type S = ScanReference<64, 64, 2, HALF, RHO>;
+    type E = Estimator<64, 64, 2, 128, HALF, RHO, { hough_heading::config::pyramid_words(64, 64) }>;
+    fuzz(
+        "ScanReference::from_bytes arbitrary",
+        20_000,
+        12,
+        proptest::collection::vec(any::<u8>(), 0..S::BYTES + 64),
+        |bytes| {
+            match S::from_bytes(&bytes) {
+                Ok(_) => prop_assert!(bytes.len() >= S::BYTES),
+                Err(hough_heading::Error::BufferTooSmall { needed }) => {
+                    prop_assert!(bytes.len() < needed && needed == S::BYTES)
+                }
+                Err(_) => {}
+            }
+            Ok(())
+        },
+    );
+    // Valid scan references, mutated, both checksums recomputed (the
+    // embedded reference's and the outer one): whatever the parser accepts
+    // must be usable by the estimator on scans.
+    let mut e = E::new(Mode::Improved);
+    let (mut g, mut free) = (Grid::<64, 64, 2>::new(), Grid::<64, 64, 2>::new());
+    for i in 0..60 {
+        g.set(i, (i * 7) % 64).unwrap();
+        g.set(5, i).unwrap();
+        free.set(i, 30).unwrap();
+    }
+    let mut valid = vec![0u8; S::BYTES];
+    S::new(e.reference(&g), free).to_bytes(&mut valid).unwrap();
+    let accepted = std::cell::Cell::new(0u32);
+    fuzz(
+        "ScanReference::from_bytes mutated+checksummed",
+        4000,
+        13,
+        (
+            proptest::collection::vec((0..S::BYTES - 4, any::<u8>()), 1..12),
+            grid_cells::<64, 64, 2>(),
+            grid_cells::<64, 64, 2>(),
+        ),
+        |(edits, grid, free)| {
+            let mut bytes = valid.clone();
+            for (at, v) in edits {
+                bytes[at] = v;
+            }
+            let inner = 4 + R::BYTES - 4;
+            let sum = fnv1a(&bytes[4..inner]);
+            bytes[inner..inner + 4].copy_from_slice(&sum.to_le_bytes());
+            let sum = fnv1a(&bytes[..S::BYTES - 4]);
+            bytes[S::BYTES - 4..].copy_from_slice(&sum.to_le_bytes());
+            if let Ok(stored) = S::from_bytes(&bytes) {
+                accepted.set(accepted.get() + 1);
+                let mut out = vec![0u8; S::BYTES];
+                prop_assert_eq!(stored.to_bytes(&mut out), Ok(S::BYTES));
+                // (Not byte for byte: the reference's reserved header bytes
+                // are not read.)
+                let again = S::from_bytes(&out);
+                prop_assert_eq!(again.as_ref(), Ok(&stored));
+                let mut e = E::new(Mode::Improved);
+                check(
+                    &e.estimate_scans(stored.reference(), &grid, &stored.free_space(&free), None),
+                    false,
+                    None,
+                    Some(true),
+                )?;
+            }
+            Ok(())
+        },
+    );
+    println!("  of which accepted and estimated: {}", accepted.get());
+    assert!(accepted.get() > 0);
 }
 
 /// A grid pattern a sensor or a caller can produce by accident.

@@ -47,7 +47,7 @@ use hough_heading::{
     stages::ColumnStats, stages::Correlation, stages::Peak, stages::PeakKind, stages::ScanBeams,
     stages::Shift, stages::Signature, stages::REFERENCE_FORMAT, stages::RUNNERS_UP, Angle, Error,
     Estimator, FreeSpace, Grid, Mode, Prior, Raster, Reference, ScaleRange, Scan, ScanStats, Score,
-    SensorOffset, Thresholds,
+    ScanReference, SensorOffset, Thresholds,
 };
 use hough_lidar::ydlidar::YdlidarLayout;
 use hough_lidar::{
@@ -184,7 +184,8 @@ fn entry_estimator<
 
 /// A stored reference: bytes in, bytes out, and an estimate against a
 /// reference read from arbitrary (checksummed) bytes, with the verification
-/// on and off; bytes of the previous format (version 2) give a typed error.
+/// on and off, and the same bytes as a scan reference; bytes of the previous
+/// format (version 2) give a typed error.
 #[inline(never)]
 fn entry_reference_bytes<
     const W: usize,
@@ -210,6 +211,15 @@ fn entry_reference_bytes<
         let mut e = Estimator::<W, H, RW, N, HALF, RHO, PW>::new(opaque_mode())
             .with_verification(opaque(true));
         opaque(e.estimate(&reference, grid));
+    }
+    // The same bytes as a scan reference (free space stored with it).
+    if let Ok(stored) = ScanReference::<W, H, RW, HALF, RHO>::from_bytes(bytes) {
+        let mut out = opaque([0u8; 64]);
+        let len = opaque(0usize).min(out.len());
+        let _ = opaque(stored.to_bytes(out.get_mut(..len).unwrap_or(&mut [])));
+        let mut e = Estimator::<W, H, RW, N, HALF, RHO, PW>::new(opaque_mode())
+            .with_verification(opaque(true));
+        opaque(e.estimate_scans(stored.reference(), grid, &stored.free_space(grid), None));
     }
     match Reference::<W, H, RW, HALF, RHO>::from_bytes(version_2) {
         Err(Error::ReferenceVersion { found, expected }) => {

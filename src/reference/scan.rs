@@ -1,0 +1,170 @@
+//! A reference for estimates on laser scans: the [`Reference`] of the scan's
+//! occupied cells and the free space its beams crossed, stored together so
+//! that a relocalization against a stored view keeps the evidence that tells
+//! a large turn from a small one ([`Estimator::estimate_scans`]).
+//!
+//! [`Estimator::estimate_scans`]: crate::Estimator::estimate_scans
+
+use super::{byte, fnv1a, le_u32, same_words, Reference, Writer};
+use crate::error::Error;
+use crate::grid::Grid;
+use crate::scan::FreeSpace;
+
+/// Magic and format version of the stored bytes ("HHS" + version).
+const MAGIC: [u8; 4] = *b"HHS1";
+/// The scan reference format this library writes and reads.
+pub const SCAN_REFERENCE_FORMAT: u8 = 1;
+
+/// A scan's [`Reference`] together with its free space: the cells its beams
+/// crossed ([`Raster::free_space`](crate::Raster::free_space) on the same
+/// [`Raster`](crate::Raster) as the occupied cells). What a firmware stores
+/// (in flash, see [`Self::from_bytes`]) to relocalize on scans against a
+/// known view with the free-space test of the verification.
+///
+/// Size: [`Reference`] plus one grid (`4·RW·H` bytes: 2 KiB at 128²).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ScanReference<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const HALF: usize,
+    const RHO: usize,
+> {
+    reference: Reference<W, H, RW, HALF, RHO>,
+    free: Grid<W, H, RW>,
+}
+
+impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const RHO: usize>
+    ScanReference<W, H, RW, HALF, RHO>
+{
+    /// Bytes of [`Self::to_bytes`]: magic 4, the reference's
+    /// [`Reference::BYTES`], the free grid `4·RW·H`, its cell count 4,
+    /// checksum 4. 128², `N_THETA` = 360: 5 884 bytes.
+    pub const BYTES: usize = 4 + Reference::<W, H, RW, HALF, RHO>::BYTES + 4 * RW * H + 8;
+
+    /// The reference of a scan and the free space of the same scan, on the
+    /// same raster.
+    pub const fn new(reference: Reference<W, H, RW, HALF, RHO>, free: Grid<W, H, RW>) -> Self {
+        Self { reference, free }
+    }
+
+    /// The reference of the scan's occupied cells (for
+    /// [`Estimator::estimate_scans`](crate::Estimator::estimate_scans)).
+    pub const fn reference(&self) -> &Reference<W, H, RW, HALF, RHO> {
+        &self.reference
+    }
+
+    /// The cells the reference scan's beams crossed.
+    pub const fn free(&self) -> &Grid<W, H, RW> {
+        &self.free
+    }
+
+    /// The free space of an estimate against this reference: its own and
+    /// `current`'s, the free cells of the new scan on the same raster.
+    pub const fn free_space<'a>(&'a self, current: &'a Grid<W, H, RW>) -> FreeSpace<'a, W, H, RW> {
+        FreeSpace {
+            reference: &self.free,
+            current,
+        }
+    }
+
+    /// Writes the scan reference as [`Self::BYTES`] bytes (little-endian):
+    /// the magic `HHS1`, the reference as [`Reference::to_bytes`] writes it
+    /// (with its own checksum), the free grid's row words, its cell count and
+    /// an FNV-1a checksum of everything before. Returns the length.
+    ///
+    /// # Errors
+    /// [`Error::BufferTooSmall`] if `out` is shorter than [`Self::BYTES`].
+    pub fn to_bytes(&self, out: &mut [u8]) -> Result<usize, Error> {
+        let needed = Self::BYTES;
+        let out = out
+            .get_mut(..needed)
+            .ok_or(Error::BufferTooSmall { needed })?;
+        let (head, rest) = out.split_at_mut(MAGIC.len());
+        head.copy_from_slice(&MAGIC);
+        let written = self
+            .reference
+            .to_bytes(rest)
+            .map_err(|_| Error::BufferTooSmall { needed })?;
+        let mut w = Writer {
+            out,
+            at: MAGIC.len() + written,
+        };
+        for word in self.free.words().iter().flatten() {
+            w.put(&word.to_le_bytes());
+        }
+        w.put(&self.free.occupied().to_le_bytes());
+        let sum = fnv1a(w.out, w.at);
+        w.put(&sum.to_le_bytes());
+        Ok(needed)
+    }
+
+    /// Reads a scan reference written by [`Self::to_bytes`] for the same
+    /// grid size, `HALF` and `RHO`.
+    ///
+    /// # Errors
+    /// [`Error::ReferenceVersion`] if the bytes are a scan reference of
+    /// another format version (`found` and `expected` are scan reference
+    /// versions: prepare and store it again); [`Error::BufferTooSmall`] if
+    /// `bytes` is short; [`Error::InvalidReference`] if the magic or the
+    /// checksum do not match (the bytes of a plain [`Reference`], which has
+    /// no free space, are refused so: read those with
+    /// [`Reference::from_bytes`]), if the free grid has bits beyond `W` or
+    /// disagrees with its stored cell count, and for whatever
+    /// [`Reference::from_bytes`] refuses in the embedded reference (its
+    /// errors are passed on).
+    ///
+    /// A `const fn`, as [`Reference::from_bytes`]: a scan reference stored
+    /// with the firmware can be a `static` in flash.
+    pub const fn from_bytes(bytes: &[u8]) -> Result<Self, Error> {
+        let version = byte(bytes, 3);
+        if bytes.len() >= 4
+            && byte(bytes, 0) == b'H'
+            && byte(bytes, 1) == b'H'
+            && byte(bytes, 2) == b'S'
+            && version.is_ascii_digit()
+            && version != MAGIC[3]
+        {
+            return Err(Error::ReferenceVersion {
+                found: version.wrapping_sub(b'0'),
+                expected: SCAN_REFERENCE_FORMAT,
+            });
+        }
+        if bytes.len() < Self::BYTES {
+            return Err(Error::BufferTooSmall {
+                needed: Self::BYTES,
+            });
+        }
+        let body = Self::BYTES - 4;
+        if le_u32(bytes, 0) != u32::from_le_bytes(MAGIC)
+            || le_u32(bytes, body) != fnv1a(bytes, body)
+        {
+            return Err(Error::InvalidReference);
+        }
+        let Some((_, inner)) = bytes.split_at_checked(MAGIC.len()) else {
+            return Err(Error::InvalidReference);
+        };
+        let reference = match Reference::from_bytes(inner) {
+            Ok(r) => r,
+            Err(e) => return Err(e),
+        };
+        let mut at = MAGIC.len() + Reference::<W, H, RW, HALF, RHO>::BYTES;
+        let mut rows = [[0u32; RW]; H];
+        let mut r = 0;
+        while r < H {
+            let mut w = 0;
+            while w < RW {
+                rows[r][w] = le_u32(bytes, at);
+                at += 4;
+                w += 1;
+            }
+            r += 1;
+        }
+        let free = Grid::from_words(rows);
+        // `from_words` clears bits beyond W: a changed row held such bits.
+        if !same_words(free.words(), &rows) || free.occupied() != le_u32(bytes, at) {
+            return Err(Error::InvalidReference);
+        }
+        Ok(Self { reference, free })
+    }
+}
