@@ -16,8 +16,11 @@
 //! watches): nothing (the markers' own overhead), preparing the reference, one
 //! estimate against it (`Mode::Improved` as built: with the verification by
 //! alignment), the bare vote loop over θ ∈ [0, π) (`vote_column_pair`, as the
-//! estimator runs it), the same estimate with `with_verification(false)`, and
-//! with the scale search (verified as well). Before each it logs
+//! estimator runs it), the same estimate with `with_verification(false)`,
+//! with the scale search (verified as well), and two estimates on a pair of
+//! scattered cells that defeats the branch and bound's pruning, cut by work
+//! budgets of 2¹⁹ and 2²⁰ grid rows (`Thresholds::search_budget`): their
+//! difference is what one budget row costs. Before each it logs
 //! `bench <what> sp=<stack pointer> votes=<votes>`; the plugin reports the
 //! instruction count and the lowest stack address written. It exits with 0 when
 //! every estimate is right (and the verified ones were verified, the
@@ -47,7 +50,7 @@ mod firmware {
     use hough_heading::{
         config::half_turn_steps, config::rho_bins, config::row_words, estimator, grid, reference,
         stages::vote_column, stages::vote_column_pair, stages::Column, Angle, Estimate, Grid, Mode,
-        ScaleRange,
+        ScaleRange, Status, Thresholds,
     };
 
     use crate::support::room::{room_words, Pose};
@@ -85,6 +88,49 @@ mod firmware {
         dy: -2.0,
     }));
 
+    /// Work budgets (grid rows per sampled point) of the two cut estimates
+    /// on [`SCATTERED`]: the difference of their instructions over the
+    /// difference of these is what one budget row costs.
+    pub const CUT_BUDGETS: [u32; 2] = [1 << 19, 1 << 20];
+
+    /// Scattered single cells (one in 27) away from the border, and the
+    /// second view a copy shifted by (3, −2) cells with every fourth cell
+    /// put elsewhere: every block of translations reaches occupied cells, so
+    /// the branch and bound cannot prune and explores until its budget runs
+    /// out (the host's `work_budget.rs` builds the same kind of pair).
+    static SCATTERED: [BenchGrid; 2] = [
+        Grid::from_words(scattered_words(false)),
+        Grid::from_words(scattered_words(true)),
+    ];
+
+    /// The rows of one view of [`SCATTERED`] (xorshift32 draws).
+    const fn scattered_words(second: bool) -> [[u32; RW]; SIDE] {
+        let mut rows = [[0u32; RW]; SIDE];
+        let mut draws = [0usize; 4];
+        let mut state: u32 = 0x2545_F491;
+        let mut i = 0;
+        while i < SIDE * SIDE / 27 {
+            let mut d = 0;
+            while d < draws.len() {
+                state ^= state << 13;
+                state ^= state >> 17;
+                state ^= state << 5;
+                draws[d] = state as usize;
+                d += 1;
+            }
+            let (c, r) = (8 + draws[0] % (SIDE - 16), 8 + draws[1] % (SIDE - 16));
+            let elsewhere = (draws[2] % SIDE, draws[3] % SIDE);
+            let (c, r) = match (second, i % 4 == 3) {
+                (false, _) => (c, r),
+                (true, true) => elsewhere,
+                (true, false) => (c + 3, r - 2),
+            };
+            rows[r][c / 32] |= 1 << (c % 32);
+            i += 1;
+        }
+        rows
+    }
+
     /// Start marker: the plugin latches its instruction counter here. The
     /// `black_box` keeps the call (the optimiser cannot see that it does
     /// nothing), and its different constant keeps the two markers from being
@@ -107,6 +153,19 @@ mod firmware {
         let out = work();
         hh_bench_stop();
         out
+    }
+
+    /// One estimate between the markers: every measured estimate goes
+    /// through this one function, so that the library's code is inlined
+    /// alike in each (more call sites of `estimate` in the program changed
+    /// its inlining, and so its measured stack, by about 100 B).
+    #[inline(never)]
+    fn measured_estimate(
+        estimator: &mut Estimator,
+        reference: &Reference,
+        grid: &BenchGrid,
+    ) -> Estimate {
+        measure(|| estimator.estimate(reference, grid))
     }
 
     /// The stack pointer (on RISC-V, which is only built, an address in the
@@ -164,13 +223,13 @@ mod firmware {
         measure(|| ());
 
         announce("reference", first_votes);
-        let reference = measure(|| estimator.reference(&FIRST));
+        let mut reference = measure(|| estimator.reference(&FIRST));
 
         // As built, the improved mode verifies by alignment.
         let verifies = estimator.verification();
         announce("estimate", second_votes);
         let Ok(estimate) = support::timed(&mut pin, || {
-            measure(|| estimator.estimate(&reference, &SECOND))
+            measured_estimate(&mut estimator, &reference, &SECOND)
         });
 
         // The estimator's vote primitives: two θ columns per pass over the
@@ -194,7 +253,7 @@ mod firmware {
         // copy of the estimator in this frame, which the M0 cannot spare.)
         estimator = estimator.with_verification(false);
         announce("unverified", second_votes);
-        let plain = measure(|| estimator.estimate(&reference, &SECOND));
+        let plain = measured_estimate(&mut estimator, &reference, &SECOND);
         let plain_right =
             support::error_millidegrees(plain.alpha, support::angle_of_degrees(TURN_DEGREES)).abs()
                 <= TOLERANCE_MDEG;
@@ -205,7 +264,7 @@ mod firmware {
         estimator = estimator.with_verification(true);
         estimator.set_scale_search(Some(ScaleRange::DEFAULT));
         announce("scaled", second_votes);
-        let scaled = measure(|| estimator.estimate(&reference, &SECOND));
+        let scaled = measured_estimate(&mut estimator, &reference, &SECOND);
         let scale_right =
             support::error_millidegrees(scaled.alpha, support::angle_of_degrees(TURN_DEGREES))
                 .abs()
@@ -214,19 +273,23 @@ mod firmware {
                     .translation
                     .is_some_and(|t| (t.scale.to_bits() - (1 << 16)).abs() <= 1 << 11);
 
+        let cut_both = measure_cuts(&mut estimator, &mut reference);
+
         let consistent = verifies
             && verified(&estimate)
             && unverified(&plain)
             && plain_right
             && verified(&scaled)
-            && scale_right;
+            && scale_right
+            && cut_both;
         defmt::println!(
-            "checks verified={=bool} unverified={=bool} plain_alpha_mdeg={=i32} scale={=bool} scaled_verified={=bool} overlap_permille={=i32}",
+            "checks verified={=bool} unverified={=bool} plain_alpha_mdeg={=i32} scale={=bool} scaled_verified={=bool} cut={=bool} overlap_permille={=i32}",
             verifies && verified(&estimate),
             unverified(&plain),
             support::millidegrees(plain.alpha),
             scale_right,
             verified(&scaled),
+            cut_both,
             ((i64::from(estimate.overlap.to_bits()) * 1000) >> 16) as i32
         );
         Outcome {
@@ -242,6 +305,36 @@ mod firmware {
         }
     }
 
+    /// The estimates on [`SCATTERED`] cut by each of [`CUT_BUDGETS`]; whether
+    /// both said so (their difference is then search work only). Not
+    /// inlined, and reusing the caller's estimator and reference, so that
+    /// the measured runs before it keep their frames (a second reference
+    /// would not fit the M0).
+    #[inline(never)]
+    fn measure_cuts(estimator: &mut Estimator, reference: &mut Reference) -> bool {
+        let [first, second] = &SCATTERED;
+        estimator.set_scale_search(None);
+        prepare(estimator, first, reference);
+        let mut cut_both = true;
+        for (what, budget) in [("cut-small", CUT_BUDGETS[0]), ("cut-large", CUT_BUDGETS[1])] {
+            estimator.set_thresholds(Thresholds {
+                search_budget: budget,
+                ..Thresholds::DEFAULT
+            });
+            announce(what, second.occupied() * HALF as u32);
+            let cut = measured_estimate(estimator, reference, second);
+            cut_both &= cut.status == Status::SearchCut;
+        }
+        cut_both
+    }
+
+    /// `into` = the reference of `grid`, prepared in this frame (popped
+    /// before the next estimate), not in the caller's.
+    #[inline(never)]
+    fn prepare(estimator: &mut Estimator, grid: &BenchGrid, into: &mut Reference) {
+        *into = estimator.reference(grid);
+    }
+
     /// The same runs and logs without the library and the grids.
     fn run_baseline() -> Outcome {
         let mut pin = ScopePin::default();
@@ -252,6 +345,8 @@ mod firmware {
             "votes",
             "unverified",
             "scaled",
+            "cut-small",
+            "cut-large",
         ] {
             announce(what, black_box(0));
             let Ok(()) = support::timed(&mut pin, || measure(|| black_box(())));

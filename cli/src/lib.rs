@@ -157,10 +157,11 @@ pub struct EstimatorArgs {
     /// (library default 0.30).
     #[arg(long, value_name = "FRACTION")]
     pub min_overlap: Option<f64>,
-    /// Tuning (verification): the most bound and score evaluations the
-    /// translation searches of one estimate may spend before the status
-    /// becomes `search_cut` (library default 60000; 4294967295: none).
-    #[arg(long, value_name = "EVALUATIONS")]
+    /// Tuning (verification): the work the translation searches of one
+    /// estimate may spend, in grid rows read per sampled point, before the
+    /// status becomes `search_cut` (library default 67108864 = 2^26;
+    /// 4294967295: none).
+    #[arg(long, value_name = "ROWS")]
     pub search_budget: Option<u32>,
 }
 

@@ -438,6 +438,45 @@ fn real_data(name: &str) -> Option<String> {
     }
 }
 
+/// The default work budget (`Thresholds::search_budget`, 2²⁶ grid rows)
+/// cuts none of the first 150 pairs of each FLIRT file at 128² (the most
+/// any shared pair spends there is 10.0 M rows), and a budget of 2²⁰ rows
+/// cuts some, which then say so and are not confident.
+#[test]
+fn the_default_work_budget_cuts_no_real_pair() {
+    let files = ["fr079-flirt_pairs.jsonl", "intel-flirt_pairs.jsonl"];
+    if files.iter().any(|f| real_data(f).is_none()) {
+        return;
+    }
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data");
+    let paths: Vec<String> = files
+        .iter()
+        .map(|f| dir.join(f).display().to_string())
+        .collect();
+    let run = |budget: Option<&str>| {
+        let mut args = vec!["scans", "-q", "--size", "128", "--limit", "150"];
+        if let Some(b) = budget {
+            args.extend(["--search-budget", b]);
+        }
+        args.extend(paths.iter().map(String::as_str));
+        let o = tool(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        stdout(&o)
+            .lines()
+            .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+            .collect::<Vec<_>>()
+    };
+    let status = |v: &serde_json::Value| v["status"].as_str().unwrap_or("").to_string();
+    let default = run(None);
+    assert_eq!(default.len(), 300);
+    assert!(default.iter().all(|v| status(v) != "search_cut"));
+    let tight = run(Some("1048576"));
+    let cut: Vec<_> = tight.iter().filter(|v| status(v) == "search_cut").collect();
+    assert!(!cut.is_empty(), "2^20 rows cut nothing");
+    // Below ½ (the JSON's four decimals round the cap, ½ − 2⁻¹⁶, to 0.5).
+    assert!(cut.iter().all(|v| v["confidence"].as_f64().unwrap() <= 0.5));
+}
+
 #[test]
 fn real_fr079_pairs_with_overlap_are_mostly_within_two_degrees() {
     let Some(text) = real_data("fr079-flirt_pairs.jsonl") else {

@@ -63,8 +63,8 @@ mod common;
 /// `adversarial.rs`): ratios and margins in [0, 2] with at least 1/1024,
 /// shift fractions and the minimum overlap in [0, 1], the alignment ratio in
 /// [0, 2]; the decision gap and the free-space weight from just below 0 to
-/// beyond their clamps; a work budget from none left to a few thousand
-/// evaluations, or none at all.
+/// beyond their clamps; a work budget from none left to a few million grid
+/// rows (what an ordinary 64² pair spends), or none at all.
 fn thresholds() -> impl Strategy<Value = Thresholds> {
     (
         0i32..=2 << 16,
@@ -76,7 +76,7 @@ fn thresholds() -> impl Strategy<Value = Thresholds> {
         (
             -1i32..=1 << 16,
             -1i32..=70 << 16,
-            prop_oneof![0u32..3000, Just(u32::MAX)],
+            prop_oneof![0u32..3_000_000, Just(u32::MAX)],
         ),
     )
         .prop_map(|(r, d, m, s, a, o, (g, f, b))| Thresholds {

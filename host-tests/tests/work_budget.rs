@@ -86,8 +86,12 @@ fn a_search_that_runs_out_says_so() {
         let (g1, g2) = scattered_pair(seed);
         let free = estimate(&g1, &g2, u32::MAX);
         assert_ne!(free.status, Status::SearchCut, "{free:?}");
-        let cut = estimate(&g1, &g2, 200);
+        // A budget (grid rows per sampled point) that lets the first seeds
+        // be scored but not the whole search (these pairs need about 10 M;
+        // an ordinary 128² real pair 1.7 M).
+        let cut = estimate(&g1, &g2, 3_000_000);
         assert_eq!(cut.status, Status::SearchCut, "{cut:?}");
+        assert!(!cut.candidates.is_empty(), "{cut:?}");
         assert!(cut.confidence < Score::from_num(0.5), "{cut:?}");
     }
     // The tiniest budget on an ordinary scene: cut, never confident.

@@ -123,17 +123,19 @@ pub struct Thresholds {
     /// than this share of the second view within one cell of the reference.
     /// Default 0.30 (chosen on the real scan pairs, README).
     pub min_overlap: Score,
-    /// With verification: the most block evaluations (a bound or a score,
-    /// each over the search's sample of at most
-    /// [`align_points`](crate::config::align_points) cells) that the
-    /// translation searches of one estimate may spend; when they run out,
-    /// the searches keep what they found and the status is
-    /// [`Status::SearchCut`]. It caps the verification's worst case; lower
-    /// it for a tighter real-time bound at the price of more cut searches.
-    /// Default 60 000: no search cut on the real scan pairs of
-    /// `../shared/data` (64², 128², 256²) nor on the quick synthetic table
-    /// (`accuracy --quick`), where 25 000 cuts up to 24 % of a harsh row's
-    /// pairs at 128² (chosen on those data). `u32::MAX`: no budget.
+    /// With verification: the work the translation searches of one estimate
+    /// may spend, in grid rows read per sampled point (each bound or score
+    /// of the branch and bound is charged the rows it may read over its
+    /// whole sample, at most 34 a point: 3 for a score, `2ᵏ + 2` for an
+    /// exact bound at level `k`, twice that with free space). When it runs
+    /// out, the searches keep what they found and the status is
+    /// [`Status::SearchCut`]. The searches' instructions are at most a
+    /// constant times this (`budgets/TABLE.md` gives it per core); the rest
+    /// of the verification is bounded by fixed loop counts. Lower it for a
+    /// real-time bound at the price of more cut searches. Default 2²⁶
+    /// (67 108 864): the most a real scan pair of `../shared/data` spends is
+    /// 6.6 M at 64², 10.0 M at 128² and 50.2 M at 256² (medians 1.2 M,
+    /// 1.7 M, 5.9 M; chosen on those data). `u32::MAX`: no budget.
     pub search_budget: u32,
 }
 
@@ -148,7 +150,7 @@ impl Thresholds {
         decision_gap: Score::from_bits(5_243),        // 0.08
         free_space_weight: Score::from_bits(131_072), // 2
         min_overlap: Score::from_bits(19_661),        // 0.30
-        search_budget: 60_000,
+        search_budget: 1 << 26,
     };
 }
 

@@ -118,6 +118,13 @@ impl<
         self
     }
 
+    /// Replaces the thresholds in place, e.g. a firmware that lowers the
+    /// work budget ([`Thresholds::search_budget`]) when its deadline
+    /// tightens, without moving the estimator.
+    pub fn set_thresholds(&mut self, thresholds: Thresholds) {
+        self.thresholds = thresholds;
+    }
+
     /// Also estimates the scale `s` (improved mode), searching `range`;
     /// without this `s` = 1 (the right model for scans of one sensor or a
     /// camera at a fixed height). Costs up to 26 re-votes and matches of the

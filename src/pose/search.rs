@@ -56,7 +56,7 @@ pub(crate) struct Aligner<'a, const W: usize, const H: usize, const RW: usize, c
     /// View points turned by the current rotation, reference cells.
     cells: [Cell; ALIGN_POINTS],
     count: usize,
-    /// Block evaluations (bounds and scores) the searches may still spend.
+    /// Grid rows (per sampled point) the searches may still read.
     budget: core::cell::Cell<u32>,
     /// A search stopped because the budget ran out.
     cut: core::cell::Cell<bool>,
@@ -101,10 +101,11 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
         }
     }
 
-    /// The aligner with a work budget: its searches spend at most
-    /// `evaluations` bounds and scores in all, then keep what they found.
-    pub(crate) fn with_budget(self, evaluations: u32) -> Self {
-        self.budget.set(evaluations);
+    /// The aligner with a work budget: its searches read at most `rows`
+    /// grid rows in all, counted per sampled point ([`Self::cost`]), then
+    /// keep what they found. `u32::MAX`: no budget.
+    pub(crate) fn with_budget(self, rows: u32) -> Self {
+        self.budget.set(rows);
         self
     }
 
@@ -113,10 +114,15 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
         self.cut.get()
     }
 
-    /// Takes one block evaluation from the budget; `false` (and the search
-    /// marked cut) when none is left.
-    fn spend(&self) -> bool {
-        match self.budget.get().checked_sub(1) {
+    /// Takes the work of one evaluation at pyramid level `k` (0: a score)
+    /// from the budget ([`Self::cost`]); `false` (and the search marked cut)
+    /// when the budget cannot cover it. A budget of `u32::MAX` is none.
+    fn spend(&self, k: usize) -> bool {
+        let budget = self.budget.get();
+        if budget == u32::MAX {
+            return true;
+        }
+        match budget.checked_sub(self.cost(k)) {
             Some(left) => {
                 self.budget.set(left);
                 true
@@ -126,6 +132,23 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
                 false
             }
         }
+    }
+
+    /// The most grid rows one evaluation at level `k` reads, over all its
+    /// points (the work unit of the budget, charged in full even when the
+    /// evaluation stops early): a score reads 3 rows a point
+    /// ([`point_score`]) and one free-space bit; an exact bound `2ᵏ + 2`
+    /// rows of the reference and, with free space, `2ᵏ` of its free grid; a
+    /// pyramid bound at most 3 rows of its level. At most 34 rows a point,
+    /// `34 · ALIGN_POINTS` an evaluation: no overflow in `u32`.
+    fn cost(&self, k: usize) -> u32 {
+        let with_free = u32::from(self.free.is_some());
+        let rows = match k {
+            0 => 3 + with_free,
+            k if k <= EXACT_LEVELS => (1 << k) + 2 + with_free * (1 << k),
+            _ => 3,
+        };
+        rows * self.points().max(1)
     }
 
     /// The shift for rotation `alpha` that keeps the view's centroid where
@@ -317,8 +340,9 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
     /// The best integer shift within `[centre − radius, centre + radius]` in
     /// both axes whose score beats `floor`, by branch and bound; `None` if
     /// none beats it. Ties keep the first found (blocks with the higher
-    /// bound first). Each bound and score spends one evaluation of the work
-    /// budget ([`Self::with_budget`]); when it runs out the search returns
+    /// bound first). Each bound and score spends the grid rows it may read
+    /// from the work budget ([`Self::with_budget`], [`Self::cost`]); when it
+    /// runs out the search returns
     /// the best found so far and [`Self::cut`] is set. The radius is
     /// clamped to `2^(L+1)` cells (`L` the pyramid's levels: at least half
     /// the grid's larger side; the default window, ¼ of the ρ range, is
@@ -348,7 +372,7 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
             for j in 0..blocks {
                 let (col, row) = (j * side, i * side);
                 let (c0, r0) = (origin.0 + col, origin.1 + row);
-                if !self.spend() {
+                if !self.spend(top) {
                     return None;
                 }
                 let b = if top == 0 {
@@ -391,7 +415,7 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
                     let (c, r) = (origin.0 + col, origin.1 + row);
                     let cb = if col > last || row > last {
                         0
-                    } else if !self.spend() {
+                    } else if !self.spend(k - 1) {
                         return best;
                     } else if k == 1 {
                         self.score_above((c, r), floor)

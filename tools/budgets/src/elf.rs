@@ -14,7 +14,7 @@ pub struct Image {
     pub flash: u64,
     /// Bytes of RAM reserved at link time: `.data + .bss` (and `.uninit`).
     pub static_ram: u64,
-    /// Size of the two grids (`FIRST`, `SECOND`) in flash.
+    /// Size of the bench's grids (`FIRST`, `SECOND`, `SCATTERED`) in flash.
     pub grids: u64,
     /// Address of `hh_bench_start`, Thumb bit cleared.
     pub start: Option<u64>,
@@ -82,7 +82,11 @@ pub fn read(path: &Path) -> Result<Image, Error> {
             .find(|s| s.name().is_ok_and(|n| n.contains(needle)))
             .map(|s| (s.address() & !1, s.size()))
     };
-    let grids = [find("8firmware5FIRST"), find("8firmware6SECOND")]
+    let grids = [
+        find("8firmware5FIRST"),
+        find("8firmware6SECOND"),
+        find("8firmware9SCATTERED"),
+    ]
         .iter()
         .flatten()
         .map(|&(_, size)| size)

@@ -59,7 +59,7 @@ const SIDES: [usize; 3] = [64, 128, 256];
 pub const TOLERANCE: f64 = 0.10;
 
 /// Budget keys `--check` compares (all "smaller is better").
-const CHECKED: [&str; 22] = [
+const CHECKED: [&str; 23] = [
     "instructions_estimate",
     "instructions_unverified",
     "instructions_verification",
@@ -79,14 +79,18 @@ const CHECKED: [&str; 22] = [
     "static_ram",
     "flash_library",
     "flash_total",
+    "instructions_per_budget_row",
     "real_pair_median",
     "real_pair_max",
     "real_ram",
 ];
 
+/// The work budgets of the two cut estimates (`examples/bench.rs`).
+const CUT_BUDGETS: [u32; 2] = [1 << 19, 1 << 20];
+
 /// Measured regions of one bench run: overhead, reference, estimate, votes,
-/// unverified, scaled.
-const BENCHES: usize = 6;
+/// unverified, scaled, and the two estimates cut by a work budget.
+const BENCHES: usize = 8;
 
 /// Time limit of one firmware run.
 const RUN_TIMEOUT: Duration = Duration::from_secs(60);
@@ -313,6 +317,8 @@ fn measure_run(
     let (vote_loop, _, _) = get("votes");
     let (unverified, _, stack_unverified) = get("unverified");
     let (scaled, _, stack_scaled) = get("scaled");
+    let (cut_small, _, _) = get("cut-small");
+    let (cut_large, _, _) = get("cut-large");
     let ratio = |n: u64| {
         if votes == 0 {
             0.0
@@ -338,6 +344,16 @@ fn measure_run(
     values.insert(
         "instructions_scale_search".into(),
         json!(scaled.saturating_sub(estimate)),
+    );
+    // Two estimates on a pair that defeats the pruning, cut by work budgets
+    // of 2¹⁹ and 2²⁰ grid rows (`examples/bench.rs`): the searches' cost of
+    // one budget row.
+    values.insert("instructions_cut_small".into(), json!(cut_small));
+    values.insert("instructions_cut_large".into(), json!(cut_large));
+    let rows = f64::from(CUT_BUDGETS[1] - CUT_BUDGETS[0]);
+    values.insert(
+        "instructions_per_budget_row".into(),
+        json!((cut_large.saturating_sub(cut_small) as f64 / rows * 100.0).round() / 100.0),
     );
     values.insert("instructions_per_vote".into(), json!(ratio(estimate)));
     values.insert("vote_loop_per_vote".into(), json!(ratio(vote_loop)));
@@ -612,6 +628,10 @@ fn verification_row(target: &Target, config: &Config, v: &Map<String, Value>) ->
             (Some(ram), Some(stack)) => format!("{ram} B ({} + {stack})", ram - stack),
             _ => "–".into(),
         },
+        v.get("instructions_per_budget_row")
+            .and_then(Value::as_f64)
+            .map_or("–".into(), |c| format!("{c:.2}")),
+        count("instructions_cut_large"),
     ]);
     cells
 }
@@ -633,7 +653,7 @@ const HEADER: [&str; 12] = [
 ];
 
 /// Columns of the verification table.
-const VERIFICATION_HEADER: [&str; 12] = [
+const VERIFICATION_HEADER: [&str; 14] = [
     "target",
     "grid",
     "N_θ",
@@ -646,6 +666,8 @@ const VERIFICATION_HEADER: [&str; 12] = [
     "overlap",
     "verification off, reference in flash: RAM (estimator + stack)",
     "verified, reference in flash (grid too): RAM (estimator + stack)",
+    "searches, instr. per budget row",
+    "estimate cut at 2²⁰ budget rows",
 ];
 
 /// A Markdown table.
