@@ -58,7 +58,7 @@ pub struct Reference<
 }
 
 /// Magic and format version of the stored bytes ("HHR" + version).
-const MAGIC: [u8; 4] = *b"HHR3";
+const MAGIC: [u8; 4] = [b'H', b'H', b'R', b'0' + REFERENCE_FORMAT];
 /// The format version this library writes and reads.
 pub const REFERENCE_FORMAT: u8 = 3;
 
@@ -212,30 +212,10 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
     ///     };
     /// ```
     pub const fn from_bytes(bytes: &[u8]) -> Result<Self, Error> {
-        let version = byte(bytes, 3);
-        if bytes.len() >= 4
-            && byte(bytes, 0) == b'H'
-            && byte(bytes, 1) == b'H'
-            && byte(bytes, 2) == b'R'
-            && version.is_ascii_digit()
-            && version != MAGIC[3]
-        {
-            return Err(Error::ReferenceVersion {
-                found: version.wrapping_sub(b'0'),
-                expected: REFERENCE_FORMAT,
-            });
+        if let Err(e) = check_envelope(bytes, MAGIC, Self::BYTES) {
+            return Err(e);
         }
-        if bytes.len() < Self::BYTES {
-            return Err(Error::BufferTooSmall {
-                needed: Self::BYTES,
-            });
-        }
-        let body = Self::BYTES - 4;
-        if le_u32(bytes, body) != fnv1a(bytes, body) {
-            return Err(Error::InvalidReference);
-        }
-        let header_ok = le_u32(bytes, 0) == u32::from_le_bytes(MAGIC)
-            && le_u16(bytes, 4) as usize == W
+        let header_ok = le_u16(bytes, 4) as usize == W
             && le_u16(bytes, 6) as usize == H
             && le_u16(bytes, 8) as usize == HALF
             && le_u16(bytes, 10) as usize == RHO;
@@ -285,25 +265,10 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
             at += 2 + RHO;
             i += 1;
         }
-        let mut rows = [[0u32; RW]; H];
-        let mut r = 0;
-        while r < H {
-            let mut w = 0;
-            while w < RW {
-                rows[r][w] = le_u32(bytes, at);
-                at += 4;
-                w += 1;
-            }
-            r += 1;
-        }
-        let grid = Grid::from_words(rows);
-        // `from_words` clears bits beyond W: a changed row held such bits.
-        if !same_words(grid.words(), &rows)
-            || grid.occupied() != occupied
-            || !signature_is_possible(&signature, occupied, W, H)
-        {
-            return Err(Error::InvalidReference);
-        }
+        let grid = match read_grid::<W, H, RW>(bytes, at, occupied) {
+            Some(grid) if signature_is_possible(&signature, occupied, W, H) => grid,
+            _ => return Err(Error::InvalidReference),
+        };
         Ok(Self {
             signature,
             profiles,
@@ -311,6 +276,65 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
             occupied,
             grid,
         })
+    }
+}
+
+/// The checks every stored format of this module shares, in order: bytes
+/// that start like `magic` (its three letters) but carry another version
+/// digit give [`Error::ReferenceVersion`]; fewer than `len` bytes
+/// [`Error::BufferTooSmall`]; another magic, or an FNV-1a checksum of the
+/// first `len − 4` bytes that differs from the last four,
+/// [`Error::InvalidReference`].
+const fn check_envelope(bytes: &[u8], magic: [u8; 4], len: usize) -> Result<(), Error> {
+    let version = byte(bytes, 3);
+    if bytes.len() >= 4
+        && byte(bytes, 0) == magic[0]
+        && byte(bytes, 1) == magic[1]
+        && byte(bytes, 2) == magic[2]
+        && version.is_ascii_digit()
+        && version != magic[3]
+    {
+        return Err(Error::ReferenceVersion {
+            found: version.wrapping_sub(b'0'),
+            expected: magic[3].wrapping_sub(b'0'),
+        });
+    }
+    if bytes.len() < len {
+        return Err(Error::BufferTooSmall { needed: len });
+    }
+    let body = len - 4;
+    if le_u32(bytes, 0) != u32::from_le_bytes(magic) || le_u32(bytes, body) != fnv1a(bytes, body) {
+        return Err(Error::InvalidReference);
+    }
+    Ok(())
+}
+
+/// The grid stored as `H` rows of `RW` little-endian words from byte `at`;
+/// `None` if a row has bits beyond `W` or the grid does not hold
+/// `occupied` cells.
+const fn read_grid<const W: usize, const H: usize, const RW: usize>(
+    bytes: &[u8],
+    at: usize,
+    occupied: u32,
+) -> Option<Grid<W, H, RW>> {
+    let mut rows = [[0u32; RW]; H];
+    let mut at = at;
+    let mut r = 0;
+    while r < H {
+        let mut w = 0;
+        while w < RW {
+            rows[r][w] = le_u32(bytes, at);
+            at += 4;
+            w += 1;
+        }
+        r += 1;
+    }
+    let grid = Grid::from_words(rows);
+    // `from_words` clears bits beyond W: a changed row held such bits.
+    if same_words(grid.words(), &rows) && grid.occupied() == occupied {
+        Some(grid)
+    } else {
+        None
     }
 }
 

@@ -5,13 +5,13 @@
 //!
 //! [`Estimator::estimate_scans`]: crate::Estimator::estimate_scans
 
-use super::{byte, fnv1a, le_u32, same_words, Reference, Writer};
+use super::{check_envelope, fnv1a, le_u32, read_grid, Reference, Writer};
 use crate::error::Error;
 use crate::grid::Grid;
 use crate::scan::FreeSpace;
 
 /// Magic and format version of the stored bytes ("HHS" + version).
-const MAGIC: [u8; 4] = *b"HHS1";
+const MAGIC: [u8; 4] = [b'H', b'H', b'S', b'0' + SCAN_REFERENCE_FORMAT];
 /// The scan reference format this library writes and reads.
 pub const SCAN_REFERENCE_FORMAT: u8 = 1;
 
@@ -117,29 +117,8 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
     /// A `const fn`, as [`Reference::from_bytes`]: a scan reference stored
     /// with the firmware can be a `static` in flash.
     pub const fn from_bytes(bytes: &[u8]) -> Result<Self, Error> {
-        let version = byte(bytes, 3);
-        if bytes.len() >= 4
-            && byte(bytes, 0) == b'H'
-            && byte(bytes, 1) == b'H'
-            && byte(bytes, 2) == b'S'
-            && version.is_ascii_digit()
-            && version != MAGIC[3]
-        {
-            return Err(Error::ReferenceVersion {
-                found: version.wrapping_sub(b'0'),
-                expected: SCAN_REFERENCE_FORMAT,
-            });
-        }
-        if bytes.len() < Self::BYTES {
-            return Err(Error::BufferTooSmall {
-                needed: Self::BYTES,
-            });
-        }
-        let body = Self::BYTES - 4;
-        if le_u32(bytes, 0) != u32::from_le_bytes(MAGIC)
-            || le_u32(bytes, body) != fnv1a(bytes, body)
-        {
-            return Err(Error::InvalidReference);
+        if let Err(e) = check_envelope(bytes, MAGIC, Self::BYTES) {
+            return Err(e);
         }
         let Some((_, inner)) = bytes.split_at_checked(MAGIC.len()) else {
             return Err(Error::InvalidReference);
@@ -148,23 +127,10 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
             Ok(r) => r,
             Err(e) => return Err(e),
         };
-        let mut at = MAGIC.len() + Reference::<W, H, RW, HALF, RHO>::BYTES;
-        let mut rows = [[0u32; RW]; H];
-        let mut r = 0;
-        while r < H {
-            let mut w = 0;
-            while w < RW {
-                rows[r][w] = le_u32(bytes, at);
-                at += 4;
-                w += 1;
-            }
-            r += 1;
-        }
-        let free = Grid::from_words(rows);
-        // `from_words` clears bits beyond W: a changed row held such bits.
-        if !same_words(free.words(), &rows) || free.occupied() != le_u32(bytes, at) {
+        let at = MAGIC.len() + Reference::<W, H, RW, HALF, RHO>::BYTES;
+        let Some(free) = read_grid::<W, H, RW>(bytes, at, le_u32(bytes, at + 4 * RW * H)) else {
             return Err(Error::InvalidReference);
-        }
+        };
         Ok(Self { reference, free })
     }
 }

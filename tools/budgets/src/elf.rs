@@ -87,10 +87,10 @@ pub fn read(path: &Path) -> Result<Image, Error> {
         find("8firmware6SECOND"),
         find("8firmware9SCATTERED"),
     ]
-        .iter()
-        .flatten()
-        .map(|&(_, size)| size)
-        .sum();
+    .iter()
+    .flatten()
+    .map(|&(_, size)| size)
+    .sum();
     let exact = |name: &str| {
         file.symbols()
             .find(|s| s.name() == Ok(name))
