@@ -197,6 +197,39 @@ impl Raster {
         self.cell
     }
 
+    /// The raster's settings as stored with a
+    /// [`ScanReference`](crate::ScanReference): metres per cell, the
+    /// [`connect`](Self::connect) gap (0 when off) and
+    /// [`clip_to_disc`](Self::clip_to_disc).
+    pub(crate) const fn settings(&self) -> (f32, f32, bool) {
+        let gap = match self.connect {
+            Some(gap) => gap,
+            None => 0.0,
+        };
+        (self.cell, gap, self.disc)
+    }
+
+    /// The raster of stored [`Self::settings`]; `None` unless the cell is
+    /// finite and positive and the gap is 0 or finite and positive.
+    pub(crate) const fn from_settings(cell: f32, gap: f32, disc: bool) -> Option<Self> {
+        if !(cell.is_finite() && cell > 0.0) {
+            return None;
+        }
+        let connect = if gap.to_bits() == 0 {
+            None
+        } else if gap.is_finite() && gap > 0.0 {
+            Some(gap)
+        } else {
+            return None;
+        };
+        Some(Self {
+            cell,
+            inv_cell: 1.0 / cell as f64,
+            connect,
+            disc,
+        })
+    }
+
     /// Adds the end points of `scan`'s valid beams to `grid` (which is not
     /// cleared first) and counts what was dropped.
     ///

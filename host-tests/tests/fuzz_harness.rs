@@ -353,7 +353,10 @@ fn fuzz_scan_reference_from_bytes() {
         free.set(i, 30).unwrap();
     }
     let mut valid = vec![0u8; S::BYTES];
-    S::new(e.reference(&g), free).to_bytes(&mut valid).unwrap();
+    let raster = Raster::with_cell(0.05).unwrap().connect(0.3);
+    S::new(e.reference(&g), free, raster)
+        .to_bytes(&mut valid)
+        .unwrap();
     let accepted = std::cell::Cell::new(0u32);
     fuzz(
         "ScanReference::from_bytes mutated+checksummed",

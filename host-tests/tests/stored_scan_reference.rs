@@ -1,8 +1,9 @@
-//! A stored scan reference (issue 23): the reference of a scan and its free
-//! space as versioned bytes. Read back, it gives the very estimates the
-//! prepared reference and free grid give; bytes of another version, of a
-//! plain grid reference, truncated or altered are refused with a typed
-//! error.
+//! A stored scan reference (issue 23): the reference of a scan, its free
+//! space and its raster as versioned bytes. Read back, it gives the very
+//! estimates the prepared reference and free grid give, and the raster to
+//! draw new scans with; bytes of another version, of a plain grid
+//! reference, truncated or altered (a raster `Raster` never makes among
+//! them) are refused with a typed error.
 
 use host_tests::raycast::{Laser, Wall};
 use hough_heading::{
@@ -47,11 +48,15 @@ fn view(pose: (f64, f64, f64), raster: &Raster) -> (G128, G128) {
     (grid, free)
 }
 
+/// The raster of the stored reference: 9 m radius, segments up to 0.3 m.
+fn raster() -> Raster {
+    Raster::with_radius(9.0, 128).unwrap().connect(0.3)
+}
+
 fn stored() -> (E128, Stored, Vec<u8>) {
-    let raster = Raster::with_radius(9.0, 128).unwrap();
-    let (grid, free) = view((3.0, 2.5, 0.4), &raster);
+    let (grid, free) = view((3.0, 2.5, 0.4), &raster());
     let mut e = E128::new(Mode::Improved);
-    let stored = ScanReference::new(e.reference(&grid), free);
+    let stored = ScanReference::new(e.reference(&grid), free, raster());
     let mut bytes = vec![0u8; Stored::BYTES];
     assert_eq!(stored.to_bytes(&mut bytes), Ok(Stored::BYTES));
     (e, stored, bytes)
@@ -76,8 +81,10 @@ fn read_back_it_gives_the_same_estimates() {
     let (mut e, stored, bytes) = stored();
     let back = Stored::from_bytes(&bytes).unwrap();
     assert_eq!(back, stored);
-    assert_eq!(Stored::BYTES, 5_884);
-    let raster = Raster::with_radius(9.0, 128).unwrap();
+    assert_eq!(Stored::BYTES, 5_896);
+    // The raster comes back: new scans are drawn at the stored scale.
+    assert_eq!(back.raster(), raster());
+    let raster = back.raster();
     // A small turn, a half turn and a quarter turn from elsewhere in the room.
     for pose in [(3.4, 2.2, 0.6), (4.0, 3.0, 3.4), (2.5, 5.5, 2.0)] {
         let (grid, free) = view(pose, &raster);
@@ -187,16 +194,47 @@ fn truncated_or_altered_bytes_are_refused() {
         grid.set(30, i).unwrap();
         free.set(i, 50).unwrap();
     }
-    let narrow = Narrow::new(e.reference(&grid), free);
+    let narrow = Narrow::new(e.reference(&grid), free, Raster::with_cell(0.05).unwrap());
     let mut good = vec![0u8; Narrow::BYTES];
     narrow.to_bytes(&mut good).unwrap();
     assert_eq!(Narrow::from_bytes(&good).as_ref(), Ok(&narrow));
-    let free_at = 4 + <hough_heading::reference!(100, 100, 180)>::BYTES;
+    let raster_at = 4 + <hough_heading::reference!(100, 100, 180)>::BYTES;
+    let free_at = raster_at + 12;
     let mut beyond = good.clone();
     // Row 0's last word holds columns 96–127: bit 31 is column 127.
     beyond[free_at + 4 * 3 + 3] |= 0x80;
     reseal(&mut beyond);
     assert_eq!(Narrow::from_bytes(&beyond), Err(Error::InvalidReference));
+    // A raster no `Raster` makes: a cell of 0, a NaN or negative gap, a
+    // clip byte of 2, a reserved byte set.
+    for (at, value) in [
+        (raster_at, 0.0f32.to_bits()),
+        (raster_at + 4, f32::NAN.to_bits()),
+        (raster_at + 4, (-0.3f32).to_bits()),
+        (raster_at + 8, 2),
+        (raster_at + 8, 1 << 8),
+    ] {
+        let mut bad = good.clone();
+        bad[at..at + 4].copy_from_slice(&value.to_le_bytes());
+        reseal(&mut bad);
+        assert_eq!(
+            Narrow::from_bytes(&bad),
+            Err(Error::InvalidReference),
+            "{at}: {value:#x}"
+        );
+    }
+    // A clipped raster with a gap is one it makes: read back as written.
+    let clipped = Narrow::new(
+        narrow.reference().clone(),
+        narrow.free().clone(),
+        Raster::with_cell(0.05)
+            .unwrap()
+            .connect(0.2)
+            .clip_to_disc(true),
+    );
+    clipped.to_bytes(&mut good).unwrap();
+    assert_eq!(Narrow::from_bytes(&good).as_ref(), Ok(&clipped));
+    narrow.to_bytes(&mut good).unwrap();
     let mut miscounted = good.clone();
     let count_at = Narrow::BYTES - 8;
     miscounted[count_at] ^= 1;

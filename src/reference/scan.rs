@@ -8,21 +8,25 @@
 use super::{check_envelope, fnv1a, le_u32, read_grid, Reference, Writer};
 use crate::error::Error;
 use crate::grid::Grid;
-use crate::scan::FreeSpace;
+use crate::scan::{FreeSpace, Raster};
 
 /// Magic and format version of the stored bytes ("HHS" + version).
 const MAGIC: [u8; 4] = [b'H', b'H', b'S', b'0' + SCAN_REFERENCE_FORMAT];
 /// The scan reference format this library writes and reads.
 pub const SCAN_REFERENCE_FORMAT: u8 = 1;
+/// Bytes of the stored raster: cell, gap, clip flag and 3 reserved.
+const RASTER_BYTES: usize = 12;
 
-/// A scan's [`Reference`] together with its free space: the cells its beams
-/// crossed ([`Raster::free_space`](crate::Raster::free_space) on the same
-/// [`Raster`](crate::Raster) as the occupied cells). What a firmware stores
-/// (in flash, see [`Self::from_bytes`]) to relocalize on scans against a
-/// known view with the free-space test of the verification.
+/// A scan's [`Reference`] together with its free space (the cells its beams
+/// crossed, [`Raster::free_space`]) and the [`Raster`] both were drawn
+/// with. What a firmware stores (in flash, see [`Self::from_bytes`]) to
+/// relocalize on scans against a known view with the free-space test of the
+/// verification; it rasterizes each new scan with [`Self::raster`], so the
+/// two views share their scale.
 ///
-/// Size: [`Reference`] plus one grid (`4·RW·H` bytes: 2 KiB at 128²).
-#[derive(Clone, Debug, PartialEq, Eq)]
+/// Size: [`Reference`] plus one grid (`4·RW·H` bytes: 2 KiB at 128²) and
+/// the raster's settings.
+#[derive(Clone, Debug, PartialEq)]
 pub struct ScanReference<
     const W: usize,
     const H: usize,
@@ -32,20 +36,30 @@ pub struct ScanReference<
 > {
     reference: Reference<W, H, RW, HALF, RHO>,
     free: Grid<W, H, RW>,
+    raster: Raster,
 }
 
 impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const RHO: usize>
     ScanReference<W, H, RW, HALF, RHO>
 {
     /// Bytes of [`Self::to_bytes`]: magic 4, the reference's
-    /// [`Reference::BYTES`], the free grid `4·RW·H`, its cell count 4,
-    /// checksum 4. 128², `N_THETA` = 360: 5 884 bytes.
-    pub const BYTES: usize = 4 + Reference::<W, H, RW, HALF, RHO>::BYTES + 4 * RW * H + 8;
+    /// [`Reference::BYTES`], the raster 12, the free grid `4·RW·H`, its cell
+    /// count 4, checksum 4. 128², `N_THETA` = 360: 5 896 bytes.
+    pub const BYTES: usize =
+        4 + Reference::<W, H, RW, HALF, RHO>::BYTES + RASTER_BYTES + 4 * RW * H + 8;
 
-    /// The reference of a scan and the free space of the same scan, on the
-    /// same raster.
-    pub const fn new(reference: Reference<W, H, RW, HALF, RHO>, free: Grid<W, H, RW>) -> Self {
-        Self { reference, free }
+    /// The reference of a scan's occupied cells and the free space of the
+    /// same scan, both drawn with `raster`.
+    pub const fn new(
+        reference: Reference<W, H, RW, HALF, RHO>,
+        free: Grid<W, H, RW>,
+        raster: Raster,
+    ) -> Self {
+        Self {
+            reference,
+            free,
+            raster,
+        }
     }
 
     /// The reference of the scan's occupied cells (for
@@ -59,6 +73,12 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
         &self.free
     }
 
+    /// The raster the reference scan was drawn with: draw each new scan
+    /// (its occupied cells and its free space) with it too.
+    pub const fn raster(&self) -> Raster {
+        self.raster
+    }
+
     /// The free space of an estimate against this reference: its own and
     /// `current`'s, the free cells of the new scan on the same raster.
     pub const fn free_space<'a>(&'a self, current: &'a Grid<W, H, RW>) -> FreeSpace<'a, W, H, RW> {
@@ -70,8 +90,11 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
 
     /// Writes the scan reference as [`Self::BYTES`] bytes (little-endian):
     /// the magic `HHS1`, the reference as [`Reference::to_bytes`] writes it
-    /// (with its own checksum), the free grid's row words, its cell count and
-    /// an FNV-1a checksum of everything before. Returns the length.
+    /// (with its own checksum), the raster (metres per cell and the
+    /// [`connect`](Raster::connect) gap as `f32` bits, 0 when off; 1 when
+    /// [`clip_to_disc`](Raster::clip_to_disc), then 3 zero bytes), the free
+    /// grid's row words, its cell count and an FNV-1a checksum of everything
+    /// before. Returns the length.
     ///
     /// # Errors
     /// [`Error::BufferTooSmall`] if `out` is shorter than [`Self::BYTES`].
@@ -90,6 +113,10 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
             out,
             at: MAGIC.len() + written,
         };
+        let (cell, gap, disc) = self.raster.settings();
+        w.put(&cell.to_bits().to_le_bytes());
+        w.put(&gap.to_bits().to_le_bytes());
+        w.put(&[u8::from(disc), 0, 0, 0]);
         for word in self.free.words().iter().flatten() {
             w.put(&word.to_le_bytes());
         }
@@ -110,7 +137,10 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
     /// checksum do not match (the bytes of a plain [`Reference`], which has
     /// no free space, are refused so: read those with
     /// [`Reference::from_bytes`]), if the free grid has bits beyond `W` or
-    /// disagrees with its stored cell count, and for whatever
+    /// disagrees with its stored cell count, if the raster is not one
+    /// [`Raster`] makes (a cell size that is not finite and positive, a gap
+    /// that is neither 0 nor finite and positive, a clip byte other than 0
+    /// or 1, reserved bytes not 0), and for whatever
     /// [`Reference::from_bytes`] refuses in the embedded reference (its
     /// errors are passed on).
     ///
@@ -128,9 +158,24 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
             Err(e) => return Err(e),
         };
         let at = MAGIC.len() + Reference::<W, H, RW, HALF, RHO>::BYTES;
+        let cell = f32::from_bits(le_u32(bytes, at));
+        let gap = f32::from_bits(le_u32(bytes, at + 4));
+        let disc = match le_u32(bytes, at + 8) {
+            0 => false,
+            1 => true,
+            _ => return Err(Error::InvalidReference),
+        };
+        let Some(raster) = Raster::from_settings(cell, gap, disc) else {
+            return Err(Error::InvalidReference);
+        };
+        let at = at + RASTER_BYTES;
         let Some(free) = read_grid::<W, H, RW>(bytes, at, le_u32(bytes, at + 4 * RW * H)) else {
             return Err(Error::InvalidReference);
         };
-        Ok(Self { reference, free })
+        Ok(Self {
+            reference,
+            free,
+            raster,
+        })
     }
 }

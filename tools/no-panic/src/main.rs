@@ -214,6 +214,7 @@ fn entry_reference_bytes<
     }
     // The same bytes as a scan reference (free space stored with it).
     if let Ok(stored) = ScanReference::<W, H, RW, HALF, RHO>::from_bytes(bytes) {
+        opaque(stored.raster());
         let mut out = opaque([0u8; 64]);
         let len = opaque(0usize).min(out.len());
         let _ = opaque(stored.to_bytes(out.get_mut(..len).unwrap_or(&mut [])));
