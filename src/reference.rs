@@ -178,7 +178,8 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
     /// format version (e.g. version 2, written before the grid was kept: prepare
     /// and store the reference again); [`Error::BufferTooSmall`] if `bytes` is
     /// short; [`Error::InvalidReference`] if the magic, grid size, θ steps, ρ
-    /// bins, mode, profile columns or checksum do not match, or the grid
+    /// bins, mode, profile columns or checksum do not match, the two
+    /// reserved header bytes are not zero, or the grid
     /// disagrees with the stored cell count or has bits beyond `W`, or the
     /// bytes hold a value [`Self::to_bytes`] never writes: `S(θ) = i16::MIN`,
     /// `S(θ) ≠ 0` in a two-bin reference, `D(θ)` above the cell count or
@@ -225,7 +226,9 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
             _ => return Err(Error::InvalidReference),
         };
         let count = byte(bytes, 13) as usize;
-        if !header_ok || count > PROFILE_COLUMNS {
+        // Bytes 14–15 are reserved: written as zeros.
+        let reserved_ok = byte(bytes, 14) == 0 && byte(bytes, 15) == 0;
+        if !header_ok || !reserved_ok || count > PROFILE_COLUMNS {
             return Err(Error::InvalidReference);
         }
         let occupied = le_u32(bytes, 16);

@@ -136,6 +136,17 @@ fn other_versions_and_plain_references_are_refused() {
         Reference::from_bytes(&plain).as_ref(),
         Ok(stored.reference())
     );
+    // The embedded reference's reserved header bytes (14–15) must be zero,
+    // even with both checksums right.
+    for at in [4 + 14, 4 + 15] {
+        let (_, _, mut bytes) = self::stored();
+        bytes[at] = 1;
+        let inner = 4 + <hough_heading::reference!(128, 128, 360)>::BYTES - 4;
+        let sum = fnv1a(&bytes[4..inner]);
+        bytes[inner..inner + 4].copy_from_slice(&sum.to_le_bytes());
+        reseal(&mut bytes);
+        assert_eq!(Stored::from_bytes(&bytes), Err(Error::InvalidReference));
+    }
     // The embedded reference's own version check is passed on.
     let (_, _, mut bytes) = self::stored();
     bytes[4 + 3] = b'0' + REFERENCE_FORMAT - 1;
