@@ -7,7 +7,8 @@
 use hough_heading::{
     config::half_turn_steps, config::pyramid_words, config::rho_bins, config::row_words,
     stages::Accumulator, stages::Correlation, stages::PeakKind, stages::Signature, Estimate,
-    Estimator, FreeSpace, Grid, Mode, Prior, Raster, ScaleRange, Scan, ScanStats, Thresholds,
+    Estimator, FreeSpace, Grid, Mode, Prior, Raster, ScaleRange, Scan, ScanReference, ScanStats,
+    Thresholds,
 };
 
 use crate::images::Image;
@@ -86,6 +87,10 @@ pub trait Engine: Send {
     fn estimate_with_prior(&mut self, mode: Mode, prior: Option<Prior>) -> Estimate;
     /// Accumulators, signatures and correlation of the two grids (for plots).
     fn figures(&self, mode: Mode) -> Figures;
+    /// The bytes of `view` as a stored scan reference (`ScanReference`, the
+    /// improved mode's reference with the view's free space and `raster`);
+    /// `None` unless the view was rasterized from a scan.
+    fn scan_reference(&mut self, view: View, raster: &Raster) -> Option<Vec<u8>>;
 }
 
 struct Config<
@@ -145,6 +150,15 @@ impl<
 
     fn set_free_space(&mut self, on: bool) {
         self.use_free = on;
+    }
+
+    fn scan_reference(&mut self, view: View, raster: &Raster) -> Option<Vec<u8>> {
+        let free = self.free[view.index()].clone()?;
+        let reference = self.improved.reference(&self.grids[view.index()]);
+        let stored = ScanReference::new(reference, free, *raster);
+        let mut bytes = vec![0; ScanReference::<W, H, RW, HALF, RHO>::BYTES];
+        stored.to_bytes(&mut bytes).ok()?;
+        Some(bytes)
     }
 
     fn rasterize(&mut self, view: View, scan: &Scan<'_>, raster: &Raster) -> ScanStats {

@@ -22,6 +22,7 @@ pub mod mcu;
 pub mod plot;
 pub mod scans;
 pub mod stats;
+pub mod stored;
 pub mod summary;
 pub mod wire;
 
@@ -88,6 +89,9 @@ pub enum Command {
     /// A raw lidar capture (LD06, RPLIDAR, YDLIDAR bytes) as a CARMEN log,
     /// one `ROBOTLASER1` line per revolution.
     Wire(wire::WireArgs),
+    /// One scan of a pair file as a stored scan reference for the firmware
+    /// (`ScanReference` bytes: the reference, its free space and raster).
+    Reference(stored::StoredArgs),
 }
 
 /// Which pipeline.
@@ -467,6 +471,7 @@ pub fn run(cli: &Cli) -> Result<usize, Fatal> {
         Command::Mcu(args) => mcu::run(args),
         Command::Log(args) => log::run(args),
         Command::Wire(args) => wire::run(args).map(|_| 0),
+        Command::Reference(args) => stored::run(args).map(|()| 0),
     }
 }
 

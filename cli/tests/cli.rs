@@ -373,6 +373,82 @@ fn a_closed_output_pipe_is_not_a_panic() {
     assert_ne!(out.status.code(), Some(101), "{err}");
 }
 
+/// `reference` writes one scan of a pair as the bytes a firmware stores:
+/// read back by the library, they are the reference, free space and raster
+/// the library prepares from the same scan on its own, and an estimate of
+/// the pair's other scan against them is the pair's ground truth.
+#[test]
+fn reference_writes_a_scan_reference_the_library_reads() {
+    use hough_heading::{estimator, grid, scan_reference, Raster};
+    use hough_heading_cli::scans::{PairRecord, Truth};
+    type Stored = scan_reference!(128, 128, 360);
+    let pairs = data_dir().join("scans.jsonl");
+    let out = scratch("reference").join("dock.hhs");
+    let o = tool(&[
+        "reference",
+        "--scans",
+        &pairs.display().to_string(),
+        "--line",
+        "2",
+        "--size",
+        "128",
+        "--out",
+        &out.display().to_string(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bytes = std::fs::read(&out).unwrap();
+    let stored = Stored::from_bytes(&bytes).unwrap();
+    let text = std::fs::read_to_string(&pairs).unwrap();
+    let line = text.lines().nth(2).unwrap();
+    let pair: PairRecord = serde_json::from_str(line).unwrap();
+    let truth: Truth = serde_json::from_str(line).unwrap();
+    let (r1, r2) = (pair.scan1.ranges(), pair.scan2.ranges());
+    let (s1, s2) = (pair.scan1.scan(&r1), pair.scan2.scan(&r2));
+    // The raster of this scan alone, with the tool's default segments.
+    let raster = Raster::auto(&[s1], 128).unwrap().connect(0.3);
+    assert_eq!(stored.raster(), raster);
+    let draw = |scan| {
+        let (mut occupied, mut free) = (<grid!(128, 128)>::new(), <grid!(128, 128)>::new());
+        raster.rasterize(scan, &mut occupied);
+        raster.free_space(scan, &mut free);
+        (occupied, free)
+    };
+    let mut e = <estimator!(128, 128, 360)>::new(Mode::Improved);
+    let (g1, f1) = draw(&s1);
+    assert_eq!(stored, Stored::new(e.reference(&g1), f1, raster));
+    let (g2, f2) = draw(&s2);
+    let estimate = e.estimate_scans(stored.reference(), &g2, &stored.free_space(&f2), None);
+    let motion = raster.motion(estimate.alpha, estimate.translation.as_ref());
+    let error = wrap_deg(f64::from(motion.dtheta).to_degrees() - truth.dtheta.to_degrees());
+    assert!(error.abs() < 2.0, "{error}° off: {estimate:?}");
+    // A line the file does not have, and a third scan: clear errors.
+    let missing = tool(&[
+        "reference",
+        "--scans",
+        &pairs.display().to_string(),
+        "--line",
+        "99",
+        "--out",
+        &out.display().to_string(),
+    ]);
+    assert_eq!(missing.status.code(), Some(2));
+    assert!(
+        stderr(&missing).contains("no line 99"),
+        "{}",
+        stderr(&missing)
+    );
+    let third = tool(&[
+        "reference",
+        "--scans",
+        &pairs.display().to_string(),
+        "--scan",
+        "3",
+        "--out",
+        &out.display().to_string(),
+    ]);
+    assert_eq!(third.status.code(), Some(2));
+}
+
 #[test]
 fn plot_writes_a_png_sheet() {
     let dir = scratch("plot");
