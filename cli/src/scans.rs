@@ -7,7 +7,6 @@
 
 use hough_heading::{
     Candidate, Estimate, HalfTurn, Mode, Prior, Raster, Scan, ScanStats, Score, SensorOffset,
-    Status,
 };
 use serde::{Deserialize, Serialize};
 
@@ -202,17 +201,9 @@ pub fn estimate_with_prior(
         .collect())
 }
 
-/// The status as a lower-case word.
-pub fn status_name(status: Status) -> &'static str {
-    match status {
-        Status::Confident => "confident",
-        Status::AmbiguousDirection => "ambiguous_direction",
-        Status::AmbiguousAxis => "ambiguous_axis",
-        Status::LowOverlap => "low_overlap",
-        Status::NoStructure => "no_structure",
-        Status::SearchCut => "search_cut",
-    }
-}
+/// The status as a lower-case word: the names of the firmware's result
+/// lines (`hough-heading mcu check` compares them with these).
+pub use crate::mcu::pairs::status_name;
 
 /// Which half-turn the direction test chose.
 pub fn half_turn_name(h: HalfTurn) -> &'static str {
