@@ -144,10 +144,13 @@ pub struct Raster {
 
 impl Raster {
     /// `metres_per_cell` cells; `None` unless it is finite and positive.
-    pub fn with_cell(metres_per_cell: f32) -> Option<Self> {
-        (metres_per_cell.is_finite() && metres_per_cell > 0.0).then(|| Self {
+    pub const fn with_cell(metres_per_cell: f32) -> Option<Self> {
+        if !(metres_per_cell.is_finite() && metres_per_cell > 0.0) {
+            return None;
+        }
+        Some(Self {
             cell: metres_per_cell,
-            inv_cell: 1.0 / f64::from(metres_per_cell),
+            inv_cell: 1.0 / metres_per_cell as f64,
             connect: None,
             disc: false,
         })
@@ -212,9 +215,9 @@ impl Raster {
     /// The raster of stored [`Self::settings`]; `None` unless the cell is
     /// finite and positive and the gap is 0 or finite and positive.
     pub(crate) const fn from_settings(cell: f32, gap: f32, disc: bool) -> Option<Self> {
-        if !(cell.is_finite() && cell > 0.0) {
+        let Some(raster) = Self::with_cell(cell) else {
             return None;
-        }
+        };
         let connect = if gap.to_bits() == 0 {
             None
         } else if gap.is_finite() && gap > 0.0 {
@@ -223,10 +226,9 @@ impl Raster {
             return None;
         };
         Some(Self {
-            cell,
-            inv_cell: 1.0 / cell as f64,
             connect,
             disc,
+            ..raster
         })
     }
 
