@@ -90,8 +90,9 @@ mod firmware {
 
     /// Work budgets (grid rows per sampled point) of the two cut estimates
     /// on [`SCATTERED`]: the difference of their instructions over the
-    /// difference of these is what one budget row costs.
-    pub const CUT_BUDGETS: [u32; 2] = [1 << 19, 1 << 20];
+    /// difference of these is what one budget row costs. Each is logged
+    /// (`budget <what> rows=<budget>`) for the budget tool.
+    const CUT_BUDGETS: [u32; 2] = [1 << 19, 1 << 20];
 
     /// Scattered single cells (one in 27) away from the border, and the
     /// second view a copy shifted by (3, −2) cells with every fourth cell
@@ -321,6 +322,7 @@ mod firmware {
                 search_budget: budget,
                 ..Thresholds::DEFAULT
             });
+            defmt::println!("budget {=str} rows={=u32}", what, budget);
             announce(what, second.occupied() * HALF as u32);
             let cut = measured_estimate(estimator, reference, second);
             cut_both &= cut.status == Status::SearchCut;

@@ -85,9 +85,6 @@ const CHECKED: [&str; 23] = [
     "real_ram",
 ];
 
-/// The work budgets of the two cut estimates (`examples/bench.rs`).
-const CUT_BUDGETS: [u32; 2] = [1 << 19, 1 << 20];
-
 /// Measured regions of one bench run: overhead, reference, estimate, votes,
 /// unverified, scaled, and the two estimates cut by a work budget.
 const BENCHES: usize = 8;
@@ -319,6 +316,16 @@ fn measure_run(
     let (scaled, _, stack_scaled) = get("scaled");
     let (cut_small, _, _) = get("cut-small");
     let (cut_large, _, _) = get("cut-large");
+    // The work budget of each cut estimate, as the bench logged it
+    // (`budget <what> rows=<rows>`).
+    let budget_rows = |what: &str| {
+        run.log
+            .iter()
+            .filter_map(|l| l.strip_prefix("budget "))
+            .find(|l| l.split_whitespace().next() == Some(what))
+            .and_then(|l| field(l, "rows"))
+            .and_then(number)
+    };
     let ratio = |n: u64| {
         if votes == 0 {
             0.0
@@ -350,11 +357,14 @@ fn measure_run(
     // one budget row.
     values.insert("instructions_cut_small".into(), json!(cut_small));
     values.insert("instructions_cut_large".into(), json!(cut_large));
-    let rows = f64::from(CUT_BUDGETS[1] - CUT_BUDGETS[0]);
-    values.insert(
-        "instructions_per_budget_row".into(),
-        json!((cut_large.saturating_sub(cut_small) as f64 / rows * 100.0).round() / 100.0),
-    );
+    if let (Some(small), Some(large)) = (budget_rows("cut-small"), budget_rows("cut-large")) {
+        let rows = large.saturating_sub(small).max(1) as f64;
+        values.insert(
+            "instructions_per_budget_row".into(),
+            json!((cut_large.saturating_sub(cut_small) as f64 / rows * 100.0).round() / 100.0),
+        );
+        values.insert("budget_rows_cut_large".into(), json!(large));
+    }
     values.insert("instructions_per_vote".into(), json!(ratio(estimate)));
     values.insert("vote_loop_per_vote".into(), json!(ratio(vote_loop)));
     values.insert("stack_reference".into(), json!(stack_reference));
@@ -631,7 +641,10 @@ fn verification_row(target: &Target, config: &Config, v: &Map<String, Value>) ->
         v.get("instructions_per_budget_row")
             .and_then(Value::as_f64)
             .map_or("–".into(), |c| format!("{c:.2}")),
-        count("instructions_cut_large"),
+        match (int("instructions_cut_large"), int("budget_rows_cut_large")) {
+            (Some(count), Some(rows)) => format!("{} ({} rows)", group(count), group(rows)),
+            _ => "–".into(),
+        },
     ]);
     cells
 }
@@ -667,7 +680,7 @@ const VERIFICATION_HEADER: [&str; 14] = [
     "verification off, reference in flash: RAM (estimator + stack)",
     "verified, reference in flash (grid too): RAM (estimator + stack)",
     "searches, instr. per budget row",
-    "estimate cut at 2²⁰ budget rows",
+    "estimate cut by the larger work budget",
 ];
 
 /// A Markdown table.
