@@ -318,6 +318,10 @@ pub struct ScanGridArgs {
     /// Keep only the disc inscribed in the grid.
     #[arg(long)]
     pub disc: bool,
+    /// Report the grid estimate's pose as it is, without refining it on the
+    /// beams' end points (`Raster::refine_on_beams`).
+    #[arg(long)]
+    pub no_beam_refine: bool,
 }
 
 impl ScanGridArgs {
@@ -331,6 +335,7 @@ impl ScanGridArgs {
             cell: self.cell,
             connect: (self.connect > 0.0).then_some(self.connect),
             disc: self.disc,
+            beam_refine: !self.no_beam_refine,
         })
     }
 }

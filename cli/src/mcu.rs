@@ -257,6 +257,7 @@ pub fn host_lines(bytes: &[u8], free_space: bool) -> Result<Vec<(u32, String)>, 
         cell: None,
         connect: Some(scans::DEFAULT_CONNECT_M),
         disc: false,
+        beam_refine: false,
     };
     let mut out = Vec::new();
     for (index, pair) in decode(bytes)? {

@@ -6,7 +6,8 @@
 //! summary.
 
 use hough_heading::{
-    Candidate, Estimate, HalfTurn, Mode, Prior, Raster, Scan, ScanStats, Score, SensorOffset,
+    BeamFit, BeamFitError, Candidate, Estimate, HalfTurn, Mode, Prior, Raster, Scan, ScanStats,
+    Score, SensorOffset,
 };
 use serde::{Deserialize, Serialize};
 
@@ -113,6 +114,9 @@ pub struct RasterOptions {
     pub connect: Option<f32>,
     /// Keep only the disc inscribed in the grid.
     pub disc: bool,
+    /// Refine the chosen pose on the beams' end points
+    /// ([`Raster::refine_on_beams`]).
+    pub beam_refine: bool,
 }
 
 impl RasterOptions {
@@ -143,6 +147,10 @@ pub struct PairEstimate {
     pub translation: Option<(f64, f64)>,
     /// Rasterization counts of both scans.
     pub stats: [ScanStats; 2],
+    /// The refinement on the beams, when it ran: the fit (whose pose
+    /// `dtheta_deg` and `translation` then are) or why the grid's pose was
+    /// kept.
+    pub beam_fit: Option<Result<BeamFit, BeamFitError>>,
 }
 
 /// Rasterizes both scans of `pair` into `engine` and estimates in each of
@@ -187,7 +195,14 @@ pub fn estimate_with_prior(
         .iter()
         .map(|&mode| {
             let estimate = engine.estimate_with_prior(mode, prior);
-            let motion = raster.motion(estimate.alpha, estimate.translation.as_ref());
+            let beam_fit = estimate
+                .translation
+                .filter(|_| options.beam_refine)
+                .map(|t| raster.refine_on_beams(&s1, &s2, estimate.alpha, &t));
+            let motion = match beam_fit {
+                Some(Ok(fit)) => raster.motion(fit.alpha, Some(&fit.translation)),
+                _ => raster.motion(estimate.alpha, estimate.translation.as_ref()),
+            };
             PairEstimate {
                 cell: raster.cell(),
                 dtheta_deg: f64::from(motion.dtheta).to_degrees(),
@@ -196,6 +211,7 @@ pub fn estimate_with_prior(
                     .map(|(x, y)| (f64::from(x), f64::from(y))),
                 stats,
                 estimate,
+                beam_fit,
             }
         })
         .collect())
@@ -274,6 +290,10 @@ pub struct OutputLine {
     /// observable (a corridor), when so.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub unobservable: Option<[f64; 2]>,
+    /// The refinement on the beams, when it ran (`dtheta_deg`, `dx_m` and
+    /// `dy_m` are then its pose unless it says `kept`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub beam_fit: Option<BeamFitLine>,
     /// Beams of each scan dropped by reason, when any was (so a
     /// `no_structure` from unusable readings says why).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -305,6 +325,48 @@ impl RunnerUp {
             alignment: value(c.alignment),
             support: value(c.support),
             free_space: value(c.free_space),
+        }
+    }
+}
+
+/// What the refinement on the beams did.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct BeamFitLine {
+    /// End points matched to a reference segment within the trim.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pairs: Option<u16>,
+    /// Their RMS distance to the segments, metres.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub residual_m: Option<f64>,
+    /// Gauss–Newton steps taken.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub iterations: Option<u8>,
+    /// Why the grid's pose was kept: `unsupported`, `too_few_pairs`,
+    /// `singular` or `moved_too_far`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub kept: Option<&'static str>,
+}
+
+impl BeamFitLine {
+    fn of(fit: &Result<BeamFit, BeamFitError>, cell: f32) -> Self {
+        match fit {
+            Ok(f) => Self {
+                pairs: Some(f.pairs),
+                residual_m: Some(round(f.residual.to_num::<f64>() * f64::from(cell), 4)),
+                iterations: Some(f.iterations),
+                kept: None,
+            },
+            Err(e) => Self {
+                pairs: None,
+                residual_m: None,
+                iterations: None,
+                kept: Some(match e {
+                    BeamFitError::Unsupported => "unsupported",
+                    BeamFitError::TooFewPairs => "too_few_pairs",
+                    BeamFitError::Singular => "singular",
+                    BeamFitError::MovedTooFar => "moved_too_far",
+                }),
+            },
         }
     }
 }
@@ -374,6 +436,7 @@ impl OutputLine {
                 .map(|t| round(t.residual.to_num::<f64>() * f64::from(p.cell), 4)),
             columns: e.translation.map(|t| t.columns),
             unobservable,
+            beam_fit: p.beam_fit.as_ref().map(|f| BeamFitLine::of(f, p.cell)),
             dropped: p
                 .stats
                 .iter()
@@ -405,6 +468,7 @@ impl OutputLine {
             residual_m: None,
             columns: None,
             unobservable: None,
+            beam_fit: None,
             dropped: None,
             error: Some(message),
         }

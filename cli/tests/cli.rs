@@ -564,6 +564,7 @@ fn real_fr079_pairs_with_overlap_are_mostly_within_two_degrees() {
         cell: None,
         connect: None,
         disc: false,
+        beam_refine: true,
     };
     let (mut pairs, mut within) = (0, 0);
     for line in text.lines() {

@@ -205,6 +205,7 @@ fn fuzz_cli_scan_pairs() {
         cell: None,
         connect: None,
         disc: false,
+        beam_refine: true,
     };
     fuzz(
         "cli scan-pair lines",

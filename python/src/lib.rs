@@ -156,6 +156,8 @@ impl ScanGrid {
                 cell,
                 connect: (connect > 0.0).then_some(connect),
                 disc,
+                // The tool's default: the chosen pose refined on the beams.
+                beam_refine: true,
             },
         })
     }

@@ -1,0 +1,592 @@
+//! The estimate refined on the beams' own end points (issue 23 item 7):
+//! a point-to-line ICP of the current scan's end points on the segments
+//! between neighbouring beams of the reference scan, after the grid
+//! estimate has chosen the rotation ([`Raster::refine_on_beams`]).
+//!
+//! The grid estimate works on cell centres (4–9 cm on the shared real
+//! scans at 256² and 128²); the beams place each wall to the sensor's own
+//! precision. Each iteration:
+//!
+//! 1. every valid end point `q` of the current scan lands in the
+//!    reference's robot frame at `p = R(θ)·q + d` (`θ = −α`,
+//!    `d = −R(θ)·t`: the estimator's convention turned into the robot's
+//!    motion, [`motion`](crate::motion));
+//! 2. its bearing from the reference sensor picks the reference beams
+//!    `j − 1 … j + 2` around it; of the segments between two consecutive
+//!    valid ones at most [`BEAM_SEGMENT_MAX_M`] long, the one whose line is
+//!    nearest gives the signed distance `r = n·(p − a)`;
+//! 3. points farther than three times the median `|r|` (clamped to
+//!    [`BEAM_TRIM_MIN_M`]…[`BEAM_TRIM_MAX_M`]) are dropped, and one Gauss–Newton step
+//!    of `Σ r²` over `(d_x, d_y, θ)` moves the pose.
+//!
+//! It stops after [`BEAM_FIT_MAX_ITERATIONS`] or when a step moves the pose by less
+//! than 10⁻³ cells and 10⁻⁵ rad. Along a direction the estimate reports
+//! unobservable (a corridor), the translation does not move.
+//!
+//! # Numbers
+//!
+//! Integer per beam: the end points are [`ScanBeams`]' Q16 cells, the
+//! bearing an integer arctangent (error below 2·10⁻⁵ rad), the normals Q15,
+//! the sums `i64`. Per iteration a handful of `f64` operations solve the
+//! 3 × 3 normal equations (software on the Cortex-M, a few thousand
+//! instructions). Measured on the shared real pairs (`overlap_gt` ≥ 0.5,
+//! estimate within 2°; `hough-heading scans`, see `docs/figures.md`): the
+//! median rotation error falls from 0.249° to 0.23° at 256² and from
+//! 0.321° to 0.23° at 128²; the files' own ground truth agrees with a
+//! beam-level fit only to about 0.19° (`tools/beam_checks.py refine`).
+
+use super::beam::{BeamEnd, ScanBeams};
+use super::sine::sin_cos;
+use super::{Raster, Scan};
+use crate::angle::Angle;
+use crate::math::{isqrt_ceil, sqrt_f64};
+use crate::pose::Pose;
+use core::cmp::Ordering::{Greater, Less};
+use fixed::types::I16F16;
+
+/// Longest segment between two neighbouring beams that counts as a wall,
+/// metres (a longer gap is a depth jump).
+pub const BEAM_SEGMENT_MAX_M: f32 = 0.5;
+/// The trim distance is three times the median residual, at least this,
+/// metres.
+pub const BEAM_TRIM_MIN_M: f32 = 0.02;
+/// … and at most this, metres.
+pub const BEAM_TRIM_MAX_M: f32 = 0.3;
+/// Gauss–Newton iterations at most.
+pub const BEAM_FIT_MAX_ITERATIONS: u8 = 10;
+/// Matched points below which no step is taken.
+pub const BEAM_FIT_MIN_PAIRS: u16 = 10;
+/// The refinement may move the rotation by at most this, degrees; farther
+/// it has left the estimate's basin and is refused
+/// ([`BeamFitError::MovedTooFar`]).
+pub const BEAM_FIT_MAX_ROTATION_DEG: f32 = 1.0;
+/// … and the translation by at most this many cells.
+pub const BEAM_FIT_MAX_SHIFT_CELLS: f32 = 3.0;
+
+/// A translation direction constrained less than this share of the best
+/// one is held ([`weak_direction`]): normals within about 13° of each other
+/// (the estimator's own corridor test uses the same ratio).
+const WEAK_RATIO: f64 = 0.05;
+/// Width of a bin of the residual histogram, metres.
+const BIN_M: f32 = 0.0025;
+/// Bins of the residual histogram (the last collects everything beyond).
+const BINS: usize = 64;
+
+/// The pose refined on the beams ([`Raster::refine_on_beams`]), in the
+/// estimator's convention: `p₂ = R(α)·p₁ + t`, cells of the raster.
+/// [`Raster::motion`] turns it into the robot's motion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BeamFit {
+    /// The refined rotation of the scene (α = −dθ).
+    pub alpha: Angle,
+    /// The refined translation `t`, cells; the estimate's scale, residual,
+    /// column count and unobservable direction are kept (`t` still has no
+    /// component along an unobservable direction).
+    pub translation: Pose,
+    /// End points of the current scan within the trim distance of a
+    /// reference segment at the last iteration.
+    pub pairs: u16,
+    /// RMS distance of those points to their segments' lines, cells.
+    pub residual: I16F16,
+    /// Gauss–Newton steps taken (1 to [`BEAM_FIT_MAX_ITERATIONS`]).
+    pub iterations: u8,
+}
+
+/// Why [`Raster::refine_on_beams`] kept the estimate as it was.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum BeamFitError {
+    /// The estimate is not one the beams can refine: a scale other than 1,
+    /// or a translation beyond the beams' reach.
+    Unsupported,
+    /// Fewer than [`BEAM_FIT_MIN_PAIRS`] end points found a reference segment (too
+    /// little overlap, no valid beams, a reference scan whose geometry is
+    /// not finite or whose sensor is far from the robot).
+    TooFewPairs,
+    /// The normal equations are singular (all matched segments parallel and
+    /// through one point, or no lever arm for the rotation).
+    Singular,
+    /// The fit moved the pose beyond [`BEAM_FIT_MAX_ROTATION_DEG`] or
+    /// [`BEAM_FIT_MAX_SHIFT_CELLS`]: it slid to another wall.
+    MovedTooFar,
+}
+
+/// The reference scan's beams and where its sensor is.
+struct Segments<'a> {
+    beams: ScanBeams,
+    ranges: &'a [f32],
+    origin: (i32, i32),
+    /// Beam 0's direction and the magnitude of the step, 2⁶⁴ = one turn.
+    start: u64,
+    step: u64,
+    /// The beams turn counter-clockwise (`angle_increment > 0`).
+    counter_clockwise: bool,
+    /// The beams cover the full circle: indices wrap.
+    full_circle: bool,
+    /// Squared longest segment, Q16 cells squared (`u64`).
+    max_len_sq: u64,
+}
+
+impl Segments<'_> {
+    /// The end of reference beam `k`, when it is a valid near return.
+    fn end(&self, k: i64) -> Option<(i32, i32)> {
+        let n = self.ranges.len() as i64;
+        let k = if self.full_circle {
+            k.rem_euclid(n.max(1))
+        } else {
+            k
+        };
+        let range = *self.ranges.get(usize::try_from(k).ok()?)?;
+        match self.beams.end(k as usize, range) {
+            BeamEnd::Near { x, y } => Some((x, y)),
+            _ => None,
+        }
+    }
+
+    /// The beam whose direction is at or just before `bearing` (2⁶⁴ = one
+    /// turn), −1 just before beam 0; `None` outside the field of view.
+    fn beam_before(&self, bearing: u64) -> Option<i64> {
+        let rel = if self.counter_clockwise {
+            bearing.wrapping_sub(self.start)
+        } else {
+            self.start.wrapping_sub(bearing)
+        };
+        let beam = rel.checked_div(self.step)?;
+        if beam <= self.ranges.len() as u64 {
+            Some(beam as i64)
+        } else if rel.wrapping_neg() <= self.step {
+            Some(-1)
+        } else {
+            None
+        }
+    }
+
+    /// The signed distance (Q16 cells) of `p` (Q16 cells) to the line of the
+    /// nearest usable segment around its bearing, with that line's unit
+    /// normal (Q15).
+    fn nearest(&self, p: (i64, i64)) -> Option<(i64, (i64, i64))> {
+        let (dx, dy) = (
+            p.0 - i64::from(self.origin.0),
+            p.1 - i64::from(self.origin.1),
+        );
+        let beam = self.beam_before(u64::from(atan2_turns(dy, dx)) << 32)?;
+        let mut best: Option<(i64, (i64, i64))> = None;
+        let mut b = self.end(beam - 1);
+        for k in beam - 1..=beam + 1 {
+            let a = b;
+            b = self.end(k + 1);
+            let (Some(a), Some(b)) = (a, b) else {
+                continue;
+            };
+            let (ex, ey) = (
+                i64::from(b.0) - i64::from(a.0),
+                i64::from(b.1) - i64::from(a.1),
+            );
+            let len_sq = (ex * ex + ey * ey) as u64;
+            if len_sq == 0 || len_sq > self.max_len_sq {
+                continue;
+            }
+            let len = isqrt_ceil(len_sq) as i64;
+            let n = ((-ey << 15) / len, (ex << 15) / len);
+            let r = (n.0 * (p.0 - i64::from(a.0)) + n.1 * (p.1 - i64::from(a.1))) >> 15;
+            if best.is_none_or(|(s, _)| r.abs() < s.abs()) {
+                best = Some((r, n));
+            }
+        }
+        best
+    }
+}
+
+/// The current pose of the fit: `p = R(θ)·q + d`.
+#[derive(Clone, Copy)]
+struct FitPose {
+    /// θ = −α, binary (2³² = one turn).
+    theta: u32,
+    /// `d`, Q16 cells.
+    d: (i64, i64),
+}
+
+impl FitPose {
+    fn apply(&self, cos_sin: (i64, i64), q: (i32, i32)) -> (i64, i64) {
+        let (c, s) = cos_sin;
+        let (x, y) = (i64::from(q.0), i64::from(q.1));
+        (
+            ((c * x - s * y) >> 16) + self.d.0,
+            ((s * x + c * y) >> 16) + self.d.1,
+        )
+    }
+}
+
+/// Normal equations of one iteration: `Σ J Jᵀ` (upper triangle) and
+/// `Σ J r`, with `J = (n_x, n_y, n × (p − d))` (Q15, Q15, Q8 cells) and
+/// `r` Q16 cells.
+#[derive(Default)]
+struct Normal {
+    a: [i64; 6],
+    b: [i64; 3],
+    pairs: u16,
+    r_sq: i64,
+}
+
+impl Normal {
+    fn add(&mut self, j: [i64; 3], r: i64) {
+        let [a, b, c] = j;
+        for (sum, term) in self
+            .a
+            .iter_mut()
+            .zip([a * a, a * b, a * c, b * b, b * c, c * c])
+        {
+            *sum = sum.saturating_add(term);
+        }
+        for (sum, ji) in self.b.iter_mut().zip(j) {
+            *sum = sum.saturating_add(ji * r);
+        }
+        self.pairs = self.pairs.saturating_add(1);
+        self.r_sq = self.r_sq.saturating_add((r * r) >> 16);
+    }
+
+    /// The Gauss–Newton step `(δd_x, δd_y)` cells and `δθ` rad, or `None`
+    /// when singular. `lock`: a unit vector (frame 1) along which `d` stays;
+    /// without one, the weakest direction is held when it is too weak.
+    fn step(&self, lock: Option<(f64, f64)>) -> Option<[f64; 3]> {
+        // Units: J₁, J₂ carry 2¹⁵, J₃ 2⁸, r 2¹⁶.
+        let scale = [32_768.0f64, 32_768.0, 256.0];
+        let [a00, a01, a02, a11, a12, a22] = self.a.map(|v| v as f64);
+        let mut m = [[a00, a01, a02], [a01, a11, a12], [a02, a12, a22]];
+        let mut v = [0.0f64; 3];
+        for i in 0..3 {
+            for k in 0..3 {
+                m[i][k] /= scale[i] * scale[k];
+            }
+            v[i] = -(self.b[i] as f64) / (scale[i] * 65_536.0);
+        }
+        let lock = lock.or_else(|| weak_direction(m[0][0], m[0][1], m[1][1]));
+        if let Some((ux, uy)) = lock {
+            // Re-parametrise the translation along the observable direction
+            // w = (−u_y, u_x) only: δd = s·w.
+            let w = [-uy, ux];
+            let a = m[0][0] * w[0] * w[0] + 2.0 * m[0][1] * w[0] * w[1] + m[1][1] * w[1] * w[1];
+            let b = m[0][2] * w[0] + m[1][2] * w[1];
+            let c = m[2][2];
+            let (f, g) = (v[0] * w[0] + v[1] * w[1], v[2]);
+            let det = a * c - b * b;
+            if det.abs().partial_cmp(&(1e-9 * (a * c).abs().max(1e-30))) != Some(Greater) {
+                return None;
+            }
+            let s = (f * c - b * g) / det;
+            let t = (a * g - b * f) / det;
+            return Some([s * w[0], s * w[1], t]);
+        }
+        solve3(m, v)
+    }
+}
+
+/// The unit vector along which the matched segments constrain the
+/// translation least, when they constrain it less than [`WEAK_RATIO`]
+/// times the best direction (all matched walls nearly parallel: the fit
+/// would slide along them on noise); `None` otherwise. `a, b, c`: the
+/// translation block `[[a, b], [b, c]]` of the normal equations.
+fn weak_direction(a: f64, b: f64, c: f64) -> Option<(f64, f64)> {
+    let mean = (a + c) / 2.0;
+    let spread = sqrt_f64(((a - c) / 2.0) * ((a - c) / 2.0) + b * b);
+    let (large, small) = (mean + spread, mean - spread);
+    if small.partial_cmp(&(WEAK_RATIO * large)) != Some(Less) {
+        return None;
+    }
+    // (b, small − a) or (small − c, b), whichever is longer.
+    let (x, y) = if (small - a).abs() > (small - c).abs() {
+        (b, small - a)
+    } else {
+        (small - c, b)
+    };
+    let norm = sqrt_f64(x * x + y * y);
+    if norm > 0.0 {
+        Some((x / norm, y / norm))
+    } else if a <= c {
+        Some((1.0, 0.0))
+    } else {
+        Some((0.0, 1.0))
+    }
+}
+
+/// `m·x = v` by Cramer's rule; `None` when `m` is (nearly) singular.
+fn solve3(m: [[f64; 3]; 3], v: [f64; 3]) -> Option<[f64; 3]> {
+    let det3 = |m: &[[f64; 3]; 3]| {
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    };
+    let det = det3(&m);
+    let size = m[0][0] * m[1][1] * m[2][2];
+    if det.abs().partial_cmp(&(1e-9 * size.abs())) != Some(Greater) || size == 0.0 {
+        return None;
+    }
+    let mut x = [0.0; 3];
+    for (c, xc) in x.iter_mut().enumerate() {
+        let mut mc = m;
+        for (row, vr) in mc.iter_mut().zip(v) {
+            row[c] = vr;
+        }
+        *xc = det3(&mc) / det;
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+impl Raster {
+    /// Refines an estimate of `current` against `reference` (the scans
+    /// rasterized with this raster: `alpha` and `translation` from
+    /// [`Estimator::estimate_scans`](crate::Estimator::estimate_scans)) on
+    /// the beams' end points: point-to-line ICP, integer per beam (see
+    /// [`BeamFit`] and the `stages::BEAM_*` constants). Returns the refined pose in the same convention,
+    /// or why the estimate is better kept.
+    ///
+    /// It refines the pose, it does not judge it: run it on the answer the
+    /// estimator chose (its status says whether to trust that), and expect
+    /// it to pull a wrong answer onto nearby walls rather than to fix it.
+    /// Cost: per iteration two passes over the current scan's beams, each
+    /// reading up to four reference beams per end point.
+    pub fn refine_on_beams(
+        &self,
+        reference: &Scan<'_>,
+        current: &Scan<'_>,
+        alpha: Angle,
+        translation: &Pose,
+    ) -> Result<BeamFit, BeamFitError> {
+        if translation.scale != I16F16::ONE {
+            return Err(BeamFitError::Unsupported);
+        }
+        let ref_beams = ScanBeams::new(reference, self);
+        let cur_beams = ScanBeams::new(current, self);
+        let origin = ref_beams.near_origin().ok_or(BeamFitError::TooFewPairs)?;
+        let (start, step) = ref_beams.angles();
+        let inv_cell = self.inv_cell;
+        let q16 = |metres: f32| (f64::from(metres) * inv_cell * 65_536.0).min(1e12) as i64;
+        let max_len = q16(BEAM_SEGMENT_MAX_M).max(1) as u64;
+        let counter_clockwise = (step as i64) >= 0;
+        let step = if counter_clockwise {
+            step
+        } else {
+            step.wrapping_neg()
+        };
+        // n·step within one step of a turn: the beams close the circle.
+        let span = u128::from(step) * reference.ranges.len() as u128;
+        let full_circle = step > 0 && span + u128::from(step) / 2 >= 1 << 64;
+        let segments = Segments {
+            beams: ref_beams,
+            ranges: reference.ranges,
+            origin,
+            start,
+            step,
+            counter_clockwise,
+            full_circle,
+            max_len_sq: max_len.saturating_mul(max_len),
+        };
+        let (trim_min, trim_max, bin) = (
+            q16(BEAM_TRIM_MIN_M),
+            q16(BEAM_TRIM_MAX_M),
+            q16(BIN_M).max(1),
+        );
+        // The start: θ = −α, d = −R(θ)·t.
+        let theta = alpha.0.wrapping_neg();
+        let (tx, ty) = (
+            i64::from(translation.x.to_bits()),
+            i64::from(translation.y.to_bits()),
+        );
+        if tx.abs().max(ty.abs()) >= 1 << 30 {
+            return Err(BeamFitError::Unsupported);
+        }
+        let cs = |theta: u32| {
+            let (s, c) = sin_cos(theta);
+            (i64::from(c), i64::from(s))
+        };
+        let (c, s) = cs(theta);
+        let start_pose = FitPose {
+            theta,
+            d: (-((c * tx - s * ty) >> 16), -((s * tx + c * ty) >> 16)),
+        };
+        // The unobservable direction u lives in t's frame; in d's it is R(θ)·u.
+        let lock = translation.unobservable.map(|(ux, uy)| {
+            let (ux, uy) = (ux.to_num::<f64>(), uy.to_num::<f64>());
+            let (c, s) = (c as f64 / 65_536.0, s as f64 / 65_536.0);
+            (c * ux - s * uy, s * ux + c * uy)
+        });
+        let mut pose = start_pose;
+        let mut last = Normal::default();
+        let mut iterations = 0;
+        while iterations < BEAM_FIT_MAX_ITERATIONS {
+            iterations += 1;
+            let rot = cs(pose.theta);
+            // Pass 1: the median residual, from a histogram.
+            let mut histogram = [0u16; BINS];
+            let mut matched = 0u32;
+            for_each_end(&cur_beams, current.ranges, |q| {
+                let p = pose.apply(rot, q);
+                if let Some((r, _)) = segments.nearest(p) {
+                    let k = usize::try_from(r.abs() / bin).unwrap_or(BINS - 1);
+                    if let Some(h) = histogram.get_mut(k.min(BINS - 1)) {
+                        *h = h.saturating_add(1);
+                    }
+                    matched += 1;
+                }
+            });
+            if matched < u32::from(BEAM_FIT_MIN_PAIRS) {
+                return Err(BeamFitError::TooFewPairs);
+            }
+            let mut below = 0u32;
+            let median_bin = histogram
+                .iter()
+                .position(|&h| {
+                    below += u32::from(h);
+                    2 * below >= matched
+                })
+                .unwrap_or(BINS - 1) as i64;
+            let trim = (3 * (median_bin + 1) * bin).clamp(trim_min, trim_max);
+            // Pass 2: the normal equations of the kept points.
+            let mut normal = Normal::default();
+            for_each_end(&cur_beams, current.ranges, |q| {
+                let p = pose.apply(rot, q);
+                if let Some((r, n)) = segments.nearest(p) {
+                    if r.abs() <= trim {
+                        let (lx, ly) = (p.0 - pose.d.0, p.1 - pose.d.1);
+                        // n × (p − d) rotated a quarter turn: ∂p/∂θ = (−l_y, l_x).
+                        let lever = (n.1 * lx - n.0 * ly) >> 23;
+                        normal.add([n.0, n.1, lever], r);
+                    }
+                }
+            });
+            if normal.pairs < BEAM_FIT_MIN_PAIRS {
+                return Err(BeamFitError::TooFewPairs);
+            }
+            let step = normal.step(lock).ok_or(BeamFitError::Singular)?;
+            last = normal;
+            // Bounded steps keep every product below 2⁶³; a fit that needs
+            // larger ones is refused below anyway.
+            let [sx, sy, st] = [
+                step[0].clamp(-1024.0, 1024.0),
+                step[1].clamp(-1024.0, 1024.0),
+                step[2].clamp(-0.5, 0.5),
+            ];
+            pose.d.0 += (sx * 65_536.0) as i64;
+            pose.d.1 += (sy * 65_536.0) as i64;
+            let turns = (st / core::f64::consts::TAU * 4_294_967_296.0) as i64;
+            pose.theta = pose.theta.wrapping_add(turns as u32);
+            if sx.abs().max(sy.abs()) < 1e-3 && st.abs() < 1e-5 {
+                break;
+            }
+        }
+        let moved = Angle(pose.theta).distance(Angle(start_pose.theta));
+        let shift = (pose.d.0 - start_pose.d.0)
+            .abs()
+            .max((pose.d.1 - start_pose.d.1).abs());
+        if moved.to_degrees() > BEAM_FIT_MAX_ROTATION_DEG
+            || shift as f64 > f64::from(BEAM_FIT_MAX_SHIFT_CELLS) * 65_536.0
+        {
+            return Err(BeamFitError::MovedTooFar);
+        }
+        // Back to the estimator's convention: α = −θ, t = −R(−θ)·d.
+        let (c, s) = cs(pose.theta);
+        let (dx, dy) = pose.d;
+        let mut t = (-((c * dx + s * dy) >> 16), -((c * dy - s * dx) >> 16));
+        if let Some((ux, uy)) = translation.unobservable {
+            let (ux, uy) = (i64::from(ux.to_bits()), i64::from(uy.to_bits()));
+            let along = (t.0 * ux + t.1 * uy) >> 16;
+            t = (t.0 - ((along * ux) >> 16), t.1 - ((along * uy) >> 16));
+        }
+        let rms = (last.r_sq / i64::from(last.pairs.max(1))).max(0) as u64;
+        Ok(BeamFit {
+            alpha: Angle(pose.theta.wrapping_neg()),
+            translation: Pose {
+                x: I16F16::from_bits(t.0 as i32),
+                y: I16F16::from_bits(t.1 as i32),
+                ..*translation
+            },
+            pairs: last.pairs,
+            residual: I16F16::from_bits((rms << 16).isqrt().min(i32::MAX as u64) as i32),
+            iterations,
+        })
+    }
+}
+
+/// Calls `f` with every valid near end point of `scan` (Q16 cells).
+fn for_each_end(beams: &ScanBeams, ranges: &[f32], mut f: impl FnMut((i32, i32))) {
+    for (i, &range) in ranges.iter().enumerate() {
+        if let BeamEnd::Near { x, y } = beams.end(i, range) {
+            f((x, y));
+        }
+    }
+}
+
+/// `atan2(y, x)` as a binary angle (2³² = one turn), error below
+/// 2·10⁻⁵ rad; 0 for the origin.
+fn atan2_turns(y: i64, x: i64) -> u32 {
+    if x == 0 && y == 0 {
+        return 0;
+    }
+    let (ax, ay) = (x.unsigned_abs(), y.unsigned_abs());
+    // z = min/max ∈ [0, 1] in Q30.
+    let (num, den, swapped) = if ay <= ax {
+        (ay, ax, false)
+    } else {
+        (ax, ay, true)
+    };
+    // Both below 2³² first, so that `num·2³⁰` fits a u64 (no 128-bit
+    // division on the Cortex-M).
+    let drop = 32u32.saturating_sub(den.leading_zeros());
+    let (num, den) = (num >> drop, (den >> drop).max(1));
+    let z = ((num << 30) / den) as i64;
+    // atan z on [0, 1] (Abramowitz & Stegun 4.4.47, error ≤ 10⁻⁵ rad),
+    // coefficients Q30, Horner in z².
+    const C: [i64; 5] = [
+        1_073_597_844,
+        -354_658_985,
+        193_426_211,
+        -91_411_436,
+        22_371_657,
+    ];
+    let z2 = (z * z) >> 30;
+    let mut acc = C[4];
+    for &c in C[..4].iter().rev() {
+        acc = c + ((acc * z2) >> 30);
+    }
+    let radians_q30 = (acc * z) >> 30;
+    // radians → turns·2³²: × 2³²/(2π) = 683 565 275.58.
+    let mut turns = (radians_q30 * 683_565_276) >> 30;
+    if swapped {
+        turns = (1 << 30) - turns;
+    }
+    if x < 0 {
+        turns = (1 << 31) - turns;
+    }
+    if y < 0 {
+        turns = -turns;
+    }
+    turns as u32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn atan2_turns_matches_f64() {
+        let mut worst = 0.0f64;
+        for k in 0..3600 {
+            let phi = (k as f64 + 0.37) * core::f64::consts::TAU / 3600.0;
+            for r in [3.0, 1000.0, 1.0e6] {
+                let (x, y) = ((r * phi.cos()) as i64, (r * phi.sin()) as i64);
+                let want = (y as f64).atan2(x as f64);
+                let got =
+                    f64::from(atan2_turns(y, x) as i32) / 4_294_967_296.0 * core::f64::consts::TAU;
+                let diff = (got - want + core::f64::consts::PI).rem_euclid(core::f64::consts::TAU)
+                    - core::f64::consts::PI;
+                worst = worst.max(diff.abs());
+            }
+        }
+        assert!(worst < 2e-5, "{worst}");
+        assert_eq!(atan2_turns(0, 0), 0);
+        assert_eq!(atan2_turns(0, 5), 0);
+        assert_eq!(atan2_turns(5, 0), 1 << 30);
+        assert_eq!(atan2_turns(0, -5), 1 << 31);
+    }
+}
