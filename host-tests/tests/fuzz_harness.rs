@@ -49,7 +49,7 @@
 
 use host_tests::fuzz::{check, fuzz, wild_f32};
 use hough_heading::{
-    config::rho_bins, config::row_words, stages::fit_translation, stages::match_profile,
+    config::rho_bins, config::row_words, stages, stages::fit_translation, stages::match_profile,
     stages::paper_asymmetry, stages::range_percentile, stages::ColumnShift, stages::ColumnStats,
     stages::Correlation, stages::PeakKind, stages::Shift, stages::Signature,
     stages::MAX_FIT_COLUMNS, stages::RUNNERS_UP, Angle, Estimator, FreeSpace, Grid, Mode, Prior,
@@ -952,6 +952,20 @@ fn fuzz_scans() {
             };
             let scans = e.estimate_scans(&reference, &g2, &views, None);
             check(&scans, false, None, Some(true))?;
+            // The refinement on the beams: within its limits, or a typed
+            // refusal.
+            if let Some(t) = scans.translation {
+                if let Ok(fit) = raster.refine_on_beams(&sa, &sb, scans.alpha, &t) {
+                    prop_assert!(
+                        fit.alpha.distance(scans.alpha).to_degrees()
+                            <= stages::BEAM_FIT_MAX_ROTATION_DEG + 1e-3
+                    );
+                    prop_assert!(fit.pairs >= stages::BEAM_FIT_MIN_PAIRS);
+                    prop_assert!((1..=stages::BEAM_FIT_MAX_ITERATIONS).contains(&fit.iterations));
+                    prop_assert!(fit.residual >= 0);
+                    prop_assert_eq!(fit.translation.unobservable, t.unobservable);
+                }
+            }
             prop_assert!(
                 scans
                     .candidates

@@ -188,7 +188,11 @@ impl Segments<'_> {
                 continue;
             }
             let len = isqrt_ceil(len_sq) as i64;
-            let n = ((-ey << 15) / len, (ex << 15) / len);
+            let (Some(nx), Some(ny)) = ((-ey << 15).checked_div(len), (ex << 15).checked_div(len))
+            else {
+                continue;
+            };
+            let n = (nx, ny);
             let r = (n.0 * (p.0 - i64::from(a.0)) + n.1 * (p.1 - i64::from(a.1))) >> 15;
             if best.is_none_or(|(s, _)| r.abs() < s.abs()) {
                 best = Some((r, n));
@@ -441,7 +445,7 @@ impl Raster {
                     2 * below >= matched
                 })
                 .unwrap_or(BINS - 1) as i64;
-            let trim = (3 * (median_bin + 1) * bin).clamp(trim_min, trim_max);
+            let trim = (3 * (median_bin + 1) * bin).max(trim_min).min(trim_max);
             // Pass 2: the normal equations of the kept points.
             let mut normal = Normal::default();
             for_each_end(&cur_beams, current.ranges, |q| {

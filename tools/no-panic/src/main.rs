@@ -46,8 +46,8 @@ use hough_heading::{
     stages::vote_column_split, stages::Accumulator, stages::Column, stages::ColumnShift,
     stages::ColumnStats, stages::Correlation, stages::Peak, stages::PeakKind, stages::ScanBeams,
     stages::Shift, stages::Signature, stages::REFERENCE_FORMAT, stages::RUNNERS_UP, Angle, Error,
-    Estimator, FreeSpace, Grid, Mode, Prior, Raster, Reference, ScaleRange, Scan, ScanStats, Score,
-    ScanReference, SensorOffset, Thresholds,
+    Estimator, FreeSpace, Grid, Mode, Pose, Prior, Raster, Reference, ScaleRange, Scan,
+    ScanReference, ScanStats, Score, SensorOffset, Thresholds,
 };
 use hough_lidar::ydlidar::YdlidarLayout;
 use hough_lidar::{
@@ -395,6 +395,15 @@ fn entry_scan<const W: usize, const H: usize, const RW: usize>(grid: &mut Grid<W
         opaque(beams.end(opaque(0), opaque(0.0)));
         opaque(stats.dropped());
         opaque(raster.motion(Angle(opaque(0)), opaque(None)));
+        let pose = Pose {
+            x: Score::from_bits(opaque(0)),
+            y: Score::from_bits(opaque(0)),
+            scale: Score::from_bits(opaque(0)),
+            residual: Score::from_bits(opaque(0)),
+            columns: opaque(0),
+            unobservable: opaque(None),
+        };
+        opaque(raster.refine_on_beams(&scan, &scans[opaque(0) & 1], Angle(opaque(0)), &pose));
     }
 }
 
