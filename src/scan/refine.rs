@@ -39,9 +39,8 @@ use super::beam::{BeamEnd, ScanBeams};
 use super::sine::sin_cos;
 use super::{Raster, Scan};
 use crate::angle::Angle;
-use crate::math::{isqrt_ceil, sqrt_f64};
+use crate::math::isqrt_ceil;
 use crate::pose::Pose;
-use core::cmp::Ordering::{Greater, Less};
 use fixed::types::I16F16;
 
 /// Longest segment between two neighbouring beams that counts as a wall,
@@ -63,10 +62,10 @@ pub const BEAM_FIT_MAX_ROTATION_DEG: f32 = 1.0;
 /// … and the translation by at most this many cells.
 pub const BEAM_FIT_MAX_SHIFT_CELLS: f32 = 3.0;
 
-/// A translation direction constrained less than this share of the best
-/// one is held ([`weak_direction`]): normals within about 13° of each other
-/// (the estimator's own corridor test uses the same ratio).
-const WEAK_RATIO: f64 = 0.05;
+/// [`BEAM_FIT_MAX_ROTATION_DEG`] as a binary angle (2³² = one turn).
+const MAX_TURN: u32 = (BEAM_FIT_MAX_ROTATION_DEG as f64 / 360.0 * 4_294_967_296.0) as u32;
+/// [`BEAM_FIT_MAX_SHIFT_CELLS`] in Q16 cells.
+const MAX_SHIFT_Q16: i64 = (BEAM_FIT_MAX_SHIFT_CELLS as f64 * 65_536.0) as i64;
 /// Width of a bin of the residual histogram, metres.
 const BIN_M: f32 = 0.0025;
 /// Bins of the residual histogram (the last collects everything beyond).
@@ -250,91 +249,155 @@ impl Normal {
         self.r_sq = self.r_sq.saturating_add((r * r) >> 16);
     }
 
-    /// The Gauss–Newton step `(δd_x, δd_y)` cells and `δθ` rad, or `None`
-    /// when singular. `lock`: a unit vector (frame 1) along which `d` stays;
-    /// without one, the weakest direction is held when it is too weak.
-    fn step(&self, lock: Option<(f64, f64)>) -> Option<[f64; 3]> {
-        // Units: J₁, J₂ carry 2¹⁵, J₃ 2⁸, r 2¹⁶.
-        let scale = [32_768.0f64, 32_768.0, 256.0];
-        let [a00, a01, a02, a11, a12, a22] = self.a.map(|v| v as f64);
-        let mut m = [[a00, a01, a02], [a01, a11, a12], [a02, a12, a22]];
-        let mut v = [0.0f64; 3];
-        for i in 0..3 {
-            for k in 0..3 {
-                m[i][k] /= scale[i] * scale[k];
+    /// The Gauss–Newton step: `δd` in Q16 cells and `δθ` as a binary angle
+    /// (2³² = one turn), or `None` when singular. `lock`: a unit vector
+    /// (frame 1, Q16) along which `d` stays; without one, the weakest
+    /// translation direction is held when it is too weak ([`weak_direction`]).
+    fn step(&self, lock: Option<(i64, i64)>) -> Option<((i64, i64), i64)> {
+        let [a00, a01, a02, a11, a12, a22] = self.a;
+        let [b0, b1, b2] = self.b.map(|v| v.saturating_neg());
+        let (x_t, x_theta) = match lock.or_else(|| weak_direction(a00, a01, a11)) {
+            None => {
+                let x = solve(
+                    &[[a00, a01, a02], [a01, a11, a12], [a02, a12, a22]],
+                    &[b0, b1, b2],
+                )?;
+                ((x[0], x[1]), x[2])
             }
-            v[i] = -(self.b[i] as f64) / (scale[i] * 65_536.0);
-        }
-        let lock = lock.or_else(|| weak_direction(m[0][0], m[0][1], m[1][1]));
-        if let Some((ux, uy)) = lock {
-            // Re-parametrise the translation along the observable direction
-            // w = (−u_y, u_x) only: δd = s·w.
-            let w = [-uy, ux];
-            let a = m[0][0] * w[0] * w[0] + 2.0 * m[0][1] * w[0] * w[1] + m[1][1] * w[1] * w[1];
-            let b = m[0][2] * w[0] + m[1][2] * w[1];
-            let c = m[2][2];
-            let (f, g) = (v[0] * w[0] + v[1] * w[1], v[2]);
-            let det = a * c - b * b;
-            if det.abs().partial_cmp(&(1e-9 * (a * c).abs().max(1e-30))) != Some(Greater) {
-                return None;
+            Some((ux, uy)) => {
+                // Only along w = (−u_y, u_x): δd = s·w. The 2 × 2 system of
+                // (s, θ), products in i128 (multiplications only).
+                let (wx, wy) = (i128::from(-uy), i128::from(ux));
+                let wide = |v: i64| i128::from(v);
+                let narrow = |v: i128| v.clamp(i64::MIN.into(), i64::MAX.into()) as i64;
+                let m00 = narrow(
+                    (wide(a00) * wx * wx + 2 * wide(a01) * wx * wy + wide(a11) * wy * wy) >> 32,
+                );
+                let m01 = narrow((wide(a02) * wx + wide(a12) * wy) >> 16);
+                let g0 = narrow((wide(b0) * wx + wide(b1) * wy) >> 16);
+                let [s, theta] = solve(&[[m00, m01], [m01, a22]], &[g0, b2])?;
+                let along = |w: i128| narrow((wide(s) * w) >> 16);
+                ((along(wx), along(wy)), theta)
             }
-            let s = (f * c - b * g) / det;
-            let t = (a * g - b * f) / det;
-            return Some([s * w[0], s * w[1], t]);
-        }
-        solve3(m, v)
+        };
+        // x = A⁻¹(−b) in Q16 of the equations' units: J₁, J₂ carry 2¹⁵ and r
+        // 2¹⁶, so δd = x·2¹⁵/2¹⁶ cells = x_q16 / 2 in Q16 cells; J₃ carries
+        // 2⁸, so δθ = x / 2⁸ rad = x_q16 · 2⁸ / 2π in binary turns
+        // (2⁸/2π · 2¹⁶ = 2 670 177).
+        let theta = (i128::from(x_theta) * 2_670_177) >> 16;
+        Some((
+            (x_t.0 >> 1, x_t.1 >> 1),
+            theta.clamp(i64::MIN.into(), i64::MAX.into()) as i64,
+        ))
     }
 }
 
-/// The unit vector along which the matched segments constrain the
-/// translation least, when they constrain it less than [`WEAK_RATIO`]
-/// times the best direction (all matched walls nearly parallel: the fit
-/// would slide along them on noise); `None` otherwise. `a, b, c`: the
-/// translation block `[[a, b], [b, c]]` of the normal equations.
-fn weak_direction(a: f64, b: f64, c: f64) -> Option<(f64, f64)> {
-    let mean = (a + c) / 2.0;
-    let spread = sqrt_f64(((a - c) / 2.0) * ((a - c) / 2.0) + b * b);
-    let (large, small) = (mean + spread, mean - spread);
-    if small.partial_cmp(&(WEAK_RATIO * large)) != Some(Less) {
+/// The unit vector (Q16) along which the matched segments constrain the
+/// translation least, when they constrain it less than 1/20 of the best
+/// direction (all matched walls nearly parallel, within about 13°: the fit
+/// would slide along them on noise; the estimator's corridor test uses the
+/// same ratio: `λ₂ < λ₁/20` ⇔ `441·det < 20·trace²`); `None` otherwise.
+/// `a, b, c`: the translation block `[[a, b], [b, c]]` of the normal
+/// equations.
+fn weak_direction(a: i64, b: i64, c: i64) -> Option<(i64, i64)> {
+    // Below 2⁵⁶ first, so that 441·a·c fits an i128.
+    let drop = (64
+        - a.unsigned_abs()
+            .max(b.unsigned_abs())
+            .max(c.unsigned_abs())
+            .leading_zeros())
+    .saturating_sub(56);
+    let (a, b, c) = (
+        i128::from(a >> drop),
+        i128::from(b >> drop),
+        i128::from(c >> drop),
+    );
+    if 441 * (a * c - b * b) >= 20 * (a + c) * (a + c) {
         return None;
     }
-    // (b, small − a) or (small − c, b), whichever is longer.
-    let (x, y) = if (small - a).abs() > (small - c).abs() {
-        (b, small - a)
-    } else {
-        (small - c, b)
-    };
-    let norm = sqrt_f64(x * x + y * y);
-    if norm > 0.0 {
-        Some((x / norm, y / norm))
-    } else if a <= c {
-        Some((1.0, 0.0))
-    } else {
-        Some((0.0, 1.0))
-    }
+    // The strong direction is at ½·atan2(2b, a − c); the weak one a quarter
+    // turn on. Both arguments shifted into an i64 together.
+    let (y, x) = (2 * b, a - c);
+    let drop = (128 - y.abs().max(x.abs()).leading_zeros()).saturating_sub(62);
+    let strong = atan2_turns((y >> drop) as i64, (x >> drop) as i64) / 2;
+    let (sin, cos) = sin_cos(strong.wrapping_add(1 << 30));
+    Some((i64::from(cos), i64::from(sin)))
 }
 
-/// `m·x = v` by Cramer's rule; `None` when `m` is (nearly) singular.
-fn solve3(m: [[f64; 3]; 3], v: [f64; 3]) -> Option<[f64; 3]> {
-    let det3 = |m: &[[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+/// `A·x = rhs` for a symmetric positive semi-definite `A` (`N` = 2 or 3),
+/// `x` in Q16; `None` when `A` is (nearly) singular. Integer only: `A` is
+/// scaled by powers of two to a unit-ish diagonal (`Mᵢᵢ ∈ [2¹⁸, 2²⁰)`, so
+/// every `|Mᵢⱼ| < 2²⁰` and a sum of six products of three fits an `i64`), `rhs`
+/// likewise, then Cramer's rule; within 10⁻³ of the exact solution
+/// (relative, or absolute below one unit; test `solve_matches_f64`),
+/// plenty for a Gauss–Newton step.
+fn solve<const N: usize>(a: &[[i64; N]; N], rhs: &[i64; N]) -> Option<[i64; N]> {
+    let shift = |v: i64, s: i32| {
+        if s >= 0 {
+            v >> s.min(63)
+        } else {
+            v.saturating_mul(1 << (-s).min(62))
+        }
     };
-    let det = det3(&m);
-    let size = m[0][0] * m[1][1] * m[2][2];
-    if det.abs().partial_cmp(&(1e-9 * size.abs())) != Some(Greater) || size == 0.0 {
+    let mut e = [0i32; N];
+    for (i, ei) in e.iter_mut().enumerate() {
+        let d = a[i][i];
+        if d <= 0 {
+            return None;
+        }
+        *ei = (64 - d.leading_zeros() as i32 - 19).div_euclid(2);
+    }
+    let limit = 1i64 << 20;
+    let mut m = [[0i64; N]; N];
+    for i in 0..N {
+        for j in 0..N {
+            m[i][j] = shift(a[i][j], e[i] + e[j]).clamp(-limit, limit);
+        }
+    }
+    let mut g = [0i64; N];
+    for i in 0..N {
+        g[i] = shift(rhs[i], e[i]);
+    }
+    let largest = g.iter().map(|v| v.unsigned_abs()).max().unwrap_or(0);
+    let h = (64 - largest.leading_zeros() as i32 - 20).max(0);
+    for v in &mut g {
+        *v >>= h;
+    }
+    let det = determinant(&m);
+    let diagonal = (0..N).fold(1i64, |p, i| p.saturating_mul(m[i][i]));
+    if det <= 0 || det < diagonal >> 16 {
         return None;
     }
-    let mut x = [0.0; 3];
-    for (c, xc) in x.iter_mut().enumerate() {
+    // The quotient keeps 24 significant bits of the divisor: y = det_c /
+    // (det >> s) is in Q(s).
+    let s = (64 - det.leading_zeros() as i32 - 24).clamp(0, 40);
+    let divisor = (det >> s).max(1);
+    let mut x = [0i64; N];
+    for c in 0..N {
         let mut mc = m;
-        for (row, vr) in mc.iter_mut().zip(v) {
-            row[c] = vr;
+        for (row, gr) in mc.iter_mut().zip(g) {
+            row[c] = gr;
         }
-        *xc = det3(&mc) / det;
+        // y = det_c / det; x = y · 2ʰ / 2^e_c, in Q16.
+        let y = determinant(&mc) / divisor;
+        x[c] = shift(y, s - 16 + e[c] - h);
     }
-    x.iter().all(|v| v.is_finite()).then_some(x)
+    Some(x)
+}
+
+/// The determinant of a 2 × 2 or 3 × 3 matrix whose entries are below 2²⁰
+/// in magnitude (other sizes: 0).
+fn determinant<const N: usize>(m: &[[i64; N]; N]) -> i64 {
+    let at = |i: usize, j: usize| m.get(i).and_then(|r| r.get(j)).copied().unwrap_or(0);
+    match N {
+        2 => at(0, 0) * at(1, 1) - at(0, 1) * at(1, 0),
+        3 => {
+            at(0, 0) * (at(1, 1) * at(2, 2) - at(1, 2) * at(2, 1))
+                - at(0, 1) * (at(1, 0) * at(2, 2) - at(1, 2) * at(2, 0))
+                + at(0, 2) * (at(1, 0) * at(2, 1) - at(1, 1) * at(2, 0))
+        }
+        _ => 0,
+    }
 }
 
 impl Raster {
@@ -411,9 +474,8 @@ impl Raster {
         };
         // The unobservable direction u lives in t's frame; in d's it is R(θ)·u.
         let lock = translation.unobservable.map(|(ux, uy)| {
-            let (ux, uy) = (ux.to_num::<f64>(), uy.to_num::<f64>());
-            let (c, s) = (c as f64 / 65_536.0, s as f64 / 65_536.0);
-            (c * ux - s * uy, s * ux + c * uy)
+            let (ux, uy) = (i64::from(ux.to_bits()), i64::from(uy.to_bits()));
+            ((c * ux - s * uy) >> 16, (s * ux + c * uy) >> 16)
         });
         let mut pose = start_pose;
         let mut last = Normal::default();
@@ -462,30 +524,24 @@ impl Raster {
             if normal.pairs < BEAM_FIT_MIN_PAIRS {
                 return Err(BeamFitError::TooFewPairs);
             }
-            let step = normal.step(lock).ok_or(BeamFitError::Singular)?;
+            let ((sx, sy), turns) = normal.step(lock).ok_or(BeamFitError::Singular)?;
             last = normal;
-            // Bounded steps keep every product below 2⁶³; a fit that needs
-            // larger ones is refused below anyway.
-            let [sx, sy, st] = [
-                step[0].clamp(-1024.0, 1024.0),
-                step[1].clamp(-1024.0, 1024.0),
-                step[2].clamp(-0.5, 0.5),
-            ];
-            pose.d.0 += (sx * 65_536.0) as i64;
-            pose.d.1 += (sy * 65_536.0) as i64;
-            let turns = (st / core::f64::consts::TAU * 4_294_967_296.0) as i64;
+            // Bounded steps (1024 cells, 1/8 turn) keep every product below
+            // 2⁶³; a fit that needs larger ones is refused below anyway.
+            let (sx, sy) = (sx.clamp(-1 << 26, 1 << 26), sy.clamp(-1 << 26, 1 << 26));
+            let turns = turns.clamp(-(1 << 29), 1 << 29);
+            pose.d = (pose.d.0 + sx, pose.d.1 + sy);
             pose.theta = pose.theta.wrapping_add(turns as u32);
-            if sx.abs().max(sy.abs()) < 1e-3 && st.abs() < 1e-5 {
+            // Converged: below 10⁻³ cells and 10⁻⁵ rad (6 836 in 2³² turns).
+            if sx.abs().max(sy.abs()) < 66 && turns.abs() < 6_836 {
                 break;
             }
         }
-        let moved = Angle(pose.theta).distance(Angle(start_pose.theta));
+        let moved = Angle(pose.theta).distance(Angle(start_pose.theta)).0;
         let shift = (pose.d.0 - start_pose.d.0)
             .abs()
             .max((pose.d.1 - start_pose.d.1).abs());
-        if moved.to_degrees() > BEAM_FIT_MAX_ROTATION_DEG
-            || shift as f64 > f64::from(BEAM_FIT_MAX_SHIFT_CELLS) * 65_536.0
-        {
+        if moved > MAX_TURN || shift > MAX_SHIFT_Q16 {
             return Err(BeamFitError::MovedTooFar);
         }
         // Back to the estimator's convention: α = −θ, t = −R(−θ)·d.
@@ -571,6 +627,80 @@ fn atan2_turns(y: i64, x: i64) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The integer solve against Gaussian elimination in f64, on normal
+    /// equations `Σ J Jᵀ` of random Jacobians at the magnitudes the fit
+    /// meets (normals Q15, levers up to thousands of Q8 cells).
+    #[test]
+    fn solve_matches_f64() {
+        let mut seed = 12_345u64;
+        let mut next = |range: i64| {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            ((seed >> 33) as i64 % (2 * range + 1)) - range
+        };
+        let mut worst = 0.0f64;
+        for case in 0..200 {
+            let mut a = [[0i64; 3]; 3];
+            let mut rhs = [0i64; 3];
+            let lever = [100, 10_000, 500_000][case % 3];
+            for _ in 0..(20 + case) {
+                let j = [next(32_768), next(32_768), next(lever)];
+                let r = next(1 << 18);
+                for i in 0..3 {
+                    for k in 0..3 {
+                        a[i][k] += j[i] * j[k];
+                    }
+                    rhs[i] -= j[i] * r;
+                }
+            }
+            let x = solve(&a, &rhs).unwrap();
+            // f64 reference: x = A⁻¹·rhs by elimination with pivoting.
+            let mut m: [[f64; 4]; 3] = core::array::from_fn(|i| {
+                [
+                    a[i][0] as f64,
+                    a[i][1] as f64,
+                    a[i][2] as f64,
+                    rhs[i] as f64,
+                ]
+            });
+            for c in 0..3 {
+                let p = (c..3)
+                    .max_by(|&u, &v| m[u][c].abs().total_cmp(&m[v][c].abs()))
+                    .unwrap();
+                m.swap(c, p);
+                for r in 0..3 {
+                    if r != c {
+                        let f = m[r][c] / m[c][c];
+                        for k in c..4 {
+                            m[r][k] -= f * m[c][k];
+                        }
+                    }
+                }
+            }
+            for i in 0..3 {
+                let want = m[i][3] / m[i][i] * 65_536.0;
+                let got = x[i] as f64;
+                worst = worst.max((got - want).abs() / (want.abs() + 65_536.0));
+            }
+        }
+        // Relative error, or absolute for steps below one unit: 2.7·10⁻⁴.
+        assert!(worst < 1e-3, "{worst}");
+        assert_eq!(solve(&[[0, 0], [0, 5]], &[1, 1]), None);
+        assert_eq!(solve(&[[4, 2], [2, 1]], &[1, 1]), None); // rank 1
+    }
+
+    /// Walls all along x (normals along y) leave x weak; walls in two
+    /// directions leave nothing weak.
+    #[test]
+    fn weak_direction_by_hand() {
+        let q30 = 1i64 << 30;
+        let (x, y) = weak_direction(q30 / 100, 0, 50 * q30).unwrap();
+        assert!(x.abs() > 65_500 && y.abs() < 100, "{x} {y}");
+        // Normals along (1, 1)/√2: weak along (1, −1)/√2.
+        let (x, y) = weak_direction(25 * q30, 25 * q30, 25 * q30).unwrap();
+        assert!((x + y).abs() < 100 && x.abs() > 46_000, "{x} {y}");
+        assert_eq!(weak_direction(30 * q30, q30, 20 * q30), None);
+    }
 
     #[test]
     fn atan2_turns_matches_f64() {
