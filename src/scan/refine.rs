@@ -668,11 +668,12 @@ mod tests {
                     .max_by(|&u, &v| m[u][c].abs().total_cmp(&m[v][c].abs()))
                     .unwrap();
                 m.swap(c, p);
-                for r in 0..3 {
+                let pivot = m[c];
+                for (r, row) in m.iter_mut().enumerate() {
                     if r != c {
-                        let f = m[r][c] / m[c][c];
-                        for k in c..4 {
-                            m[r][k] -= f * m[c][k];
+                        let f = row[c] / pivot[c];
+                        for (v, p) in row.iter_mut().zip(pivot).skip(c) {
+                            *v -= f * p;
                         }
                     }
                 }
