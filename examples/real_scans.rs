@@ -22,7 +22,9 @@
 //!    what makes the Cortex-M0's 16 KiB enough);
 //! 5. estimates (`Mode::Improved`, default thresholds, verification on,
 //!    `N_θ` = 360) with both scans' free space, as the CLI does
-//!    (`Estimator::estimate_scans`).
+//!    (`Estimator::estimate_scans`);
+//! 6. reads both scans again and refines the estimate on their beams
+//!    (`Raster::refine_on_beams`), as the CLI does by default.
 //!
 //! It logs one result line per pair ([`write_result`]: every field of the
 //! rasterization and of the estimate as raw bits), and `hough-heading mcu
@@ -32,8 +34,9 @@
 //! Each step runs between the marker functions [`hh_bench_start`] and
 //! [`hh_bench_stop`]: `budgets report` runs this firmware with the
 //! `qemu-icount` plugin, which counts the instructions of each region (one
-//! empty region first, the markers' overhead, then five per pair: window,
-//! rasterize scan 1, reference, rasterize scan 2, estimate) and the stack's
+//! empty region first, the markers' overhead, then six per pair: window,
+//! rasterize scan 1, reference, rasterize scan 2, estimate, refinement on
+//! the beams) and the stack's
 //! low-water mark, for the budget table's real-scan rows.
 //!
 //! ```text
@@ -67,8 +70,8 @@ mod firmware {
     use core::mem::size_of;
 
     use hough_heading::{
-        estimator, grid, reference, Estimate, FreeSpace, Mode, Raster, Scan, ScanStats,
-        SensorOffset, Thresholds,
+        estimator, grid, reference, BeamFit, BeamFitError, Estimate, FreeSpace, Mode, Raster, Scan,
+        ScanStats, SensorOffset, Thresholds,
     };
     use semihosting::fs::File;
     use semihosting::io::{Read, Seek, SeekFrom};
@@ -182,7 +185,9 @@ mod firmware {
         index: u32,
         raster: Raster,
         stats: ScanStats,
-        /// Where scan 2 starts in the file, and where the next pair does.
+        /// Where scan 1 and scan 2 start in the file, and where the next
+        /// pair does.
+        first_at: u64,
         second_at: u64,
         next_at: u64,
     }
@@ -200,6 +205,7 @@ mod firmware {
         pairs.read(&mut index)?;
         let mut ranges = [[0f32; MAX_BEAMS]; 2];
         let [first, second] = &mut ranges;
+        let first_at = pairs.at;
         let first = pairs.scan(first)?;
         let second_at = pairs.at;
         let second = pairs.scan(second)?;
@@ -222,9 +228,40 @@ mod firmware {
             index: u32::from_le_bytes(index),
             raster,
             stats,
+            first_at,
             second_at,
             next_at: pairs.at,
         })
+    }
+
+    /// Reads both scans of the pair of `window` again and refines the
+    /// estimate on their beams (`Raster::refine_on_beams`), as the CLI does
+    /// by default; leaves the file at the next pair. Always one measured
+    /// region (empty when the estimate has no translation). Not inlined,
+    /// like [`first_scan`]: the ranges are not on the stack during the
+    /// estimate.
+    #[inline(never)]
+    fn refine(
+        pairs: &mut Pairs,
+        window: &Window,
+        estimate: &Estimate,
+    ) -> Result<Option<Result<BeamFit, BeamFitError>>, &'static str> {
+        pairs.seek(window.first_at)?;
+        let mut ranges = [[0f32; MAX_BEAMS]; 2];
+        let [first, second] = &mut ranges;
+        let first = pairs.scan(first)?;
+        let second = pairs.scan(second)?;
+        if pairs.at != window.next_at {
+            return Err("pair file: the pair changed");
+        }
+        let scans = [scan(&first, &ranges[0]), scan(&second, &ranges[1])];
+        Ok(measure(|| {
+            estimate.translation.map(|t| {
+                window
+                    .raster
+                    .refine_on_beams(&scans[0], &scans[1], estimate.alpha, &t)
+            })
+        }))
     }
 
     /// Reads scan 2 of the pair of `window` again and rasterizes it into
@@ -263,6 +300,7 @@ mod firmware {
         occupied: [u32; 2],
         stats: &[ScanStats; 2],
         estimate: &Estimate,
+        fit: Option<&Result<BeamFit, BeamFitError>>,
     ) -> Result<(), &'static str> {
         let mut line = heapless::String::<1024>::new();
         pairs::write_result(
@@ -272,6 +310,7 @@ mod firmware {
             occupied,
             stats,
             estimate,
+            fit,
         )
         .map_err(|_| "result line too long")?;
         defmt::println!("{=str}", line.as_str());
@@ -362,12 +401,14 @@ mod firmware {
                 }
                 _ => measure(|| estimator.estimate(&reference, &grid)),
             };
+            let fit = refine(&mut pairs, &window, &estimate).unwrap_or_else(|m| fail(m));
             let stats = [window.stats, second];
             report(
                 &window,
                 [occupied_first, grid.occupied()],
                 &stats,
                 &estimate,
+                fit.as_ref(),
             )
             .unwrap_or_else(|m| fail(m));
         }

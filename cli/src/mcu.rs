@@ -257,7 +257,7 @@ pub fn host_lines(bytes: &[u8], free_space: bool) -> Result<Vec<(u32, String)>, 
         cell: None,
         connect: Some(scans::DEFAULT_CONNECT_M),
         disc: false,
-        beam_refine: false,
+        beam_refine: true,
     };
     let mut out = Vec::new();
     for (index, pair) in decode(bytes)? {
@@ -266,8 +266,16 @@ pub fn host_lines(bytes: &[u8], free_space: bool) -> Result<Vec<(u32, String)>, 
         let p = &estimates[0];
         let occupied = [View::First, View::Second].map(|v| engine.image(v).count() as u32);
         let mut line = String::new();
-        pairs::write_result(&mut line, index, p.cell, occupied, &p.stats, &p.estimate)
-            .map_err(|e| e.to_string())?;
+        pairs::write_result(
+            &mut line,
+            index,
+            p.cell,
+            occupied,
+            &p.stats,
+            &p.estimate,
+            p.beam_fit.as_ref(),
+        )
+        .map_err(|e| e.to_string())?;
         out.push((index, line));
     }
     Ok(out)

@@ -45,7 +45,7 @@
 
 use core::fmt::{self, Write};
 
-use hough_heading::{Candidate, Estimate, HalfTurn, ScanStats, Status};
+use hough_heading::{BeamFit, BeamFitError, Candidate, Estimate, HalfTurn, ScanStats, Status};
 
 /// First bytes of a pair file.
 pub const MAGIC: [u8; 4] = *b"HHSP";
@@ -154,9 +154,21 @@ pub fn status_name(status: Status) -> &'static str {
     }
 }
 
+/// Why the refinement on the beams kept the grid's pose, as a word.
+pub fn beam_fit_kept_name(error: BeamFitError) -> &'static str {
+    match error {
+        BeamFitError::Unsupported => "unsupported",
+        BeamFitError::TooFewPairs => "too_few_pairs",
+        BeamFitError::Singular => "singular",
+        BeamFitError::MovedTooFar => "moved_too_far",
+    }
+}
+
 /// Writes the result line of pair `index`: the cell size, the grids'
 /// occupied cells and the rasterization counts of both scans, then every
-/// field of `estimate` (raw bits of the fixed-point values).
+/// field of `estimate` (raw bits of the fixed-point values), then the
+/// refinement on the beams (`beam_fit=alpha/x/y/pairs/residual/iterations`,
+/// `beam_fit=kept:REASON`, or `beam_fit=-` when it did not run).
 pub fn write_result(
     out: &mut impl Write,
     index: u32,
@@ -164,6 +176,7 @@ pub fn write_result(
     occupied: [u32; 2],
     stats: &[ScanStats; 2],
     estimate: &Estimate,
+    fit: Option<&Result<BeamFit, BeamFitError>>,
 ) -> fmt::Result {
     write!(
         out,
@@ -235,6 +248,21 @@ pub fn write_result(
                 None => out.write_str("-"),
             }
         }
+        None => out.write_str("-"),
+    }?;
+    out.write_str(" beam_fit=")?;
+    match fit {
+        Some(Ok(f)) => write!(
+            out,
+            "{}/{}/{}/{}/{}/{}",
+            f.alpha.0,
+            f.translation.x.to_bits(),
+            f.translation.y.to_bits(),
+            f.pairs,
+            f.residual.to_bits(),
+            f.iterations
+        ),
+        Some(Err(e)) => write!(out, "kept:{}", beam_fit_kept_name(*e)),
         None => out.write_str("-"),
     }
 }

@@ -360,12 +360,7 @@ impl BeamFitLine {
                 pairs: None,
                 residual_m: None,
                 iterations: None,
-                kept: Some(match e {
-                    BeamFitError::Unsupported => "unsupported",
-                    BeamFitError::TooFewPairs => "too_few_pairs",
-                    BeamFitError::Singular => "singular",
-                    BeamFitError::MovedTooFar => "moved_too_far",
-                }),
+                kept: Some(crate::mcu::pairs::beam_fit_kept_name(*e)),
             },
         }
     }
