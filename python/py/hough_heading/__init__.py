@@ -686,9 +686,12 @@ def estimate_scans(
     pose of scan 2 in the frame of scan 1, as the pair files'
     ``dx, dy, dtheta``), ``status``, ``confidence``, ``candidates_deg`` with
     their ``alignments``, ``overlap``, ``correlation``, ``rival``,
-    ``cell_m``, ``residual_m``, ``columns``, ``unobservable``, ``dropped``.
+    ``cell_m``, ``residual_m``, ``columns``, ``unobservable``, ``dropped``,
+    ``beam_fit``. ``dtheta_deg``, ``dx_m`` and ``dy_m`` are the pose refined
+    on the beams (the tool's default; ``beam_fit`` says how many end points
+    it matched, or why it ``kept`` the grid's pose);
     :attr:`Estimate.translation_cells` and :attr:`Estimate.scale` add the
-    raw pose on the grids.
+    raw pose on the grids, before that refinement.
 
     Grids: ``size`` × ``size`` cells (64, 128, 256) centred on each sensor;
     ``cell`` metres per cell, or ``None`` for the tool's default (per pair,
