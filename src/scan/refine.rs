@@ -13,22 +13,25 @@
 //!    motion, [`motion`](crate::motion));
 //! 2. its bearing from the reference sensor picks the reference beams
 //!    `j − 1 … j + 2` around it; of the segments between two consecutive
-//!    valid ones at most [`BEAM_SEGMENT_MAX_M`] long, the one whose line is
-//!    nearest gives the signed distance `r = n·(p − a)`;
-//! 3. points farther than three times the median `|r|` (clamped to
-//!    [`BEAM_TRIM_MIN_M`]…[`BEAM_TRIM_MAX_M`]) are dropped, and one Gauss–Newton step
-//!    of `Σ r²` over `(d_x, d_y, θ)` moves the pose.
+//!    valid ones at most [`BEAM_SEGMENT_MAX_M`] long, the one whose
+//!    midpoint is nearest gives the signed distance `r = n·(p − a)` to its
+//!    line;
+//! 3. points farther than three times the median `|r|` of the previous
+//!    iteration (clamped to [`BEAM_TRIM_MIN_M`]…[`BEAM_TRIM_MAX_M`]; the
+//!    first iteration trims at the maximum) are dropped, and one
+//!    Gauss–Newton step of `Σ r²` over `(d_x, d_y, θ)` moves the pose.
 //!
 //! It stops after [`BEAM_FIT_MAX_ITERATIONS`] or when a step moves the pose by less
-//! than 10⁻³ cells and 10⁻⁵ rad. Along a direction the estimate reports
+//! than 0.01 cells and 10⁻⁴ rad. Along a direction the estimate reports
 //! unobservable (a corridor), the translation does not move.
 //!
 //! # Numbers
 //!
 //! Integer throughout the iterations: the end points are [`ScanBeams`]'
-//! Q16 cells, the bearing an integer arctangent (error below 2·10⁻⁵ rad),
-//! the normals Q15, the sums `i64`, the 3 × 3 normal equations solved by
-//! a power-of-two-scaled Cramer's rule (within 10⁻³ of the exact step);
+//! Q16 cells, the bearing a 32-bit arctangent (error below 2·10⁻⁴ rad,
+//! enough to pick beams), the normals Q15, the sums `i64`, the 3 × 3
+//! normal equations solved by a power-of-two-scaled Cramer's rule (within
+//! 10⁻³ of the exact step);
 //! only the setup converts a few lengths from metres in `f64`, as
 //! [`ScanBeams::new`] does. Measured on the shared real pairs
 //! (`overlap_gt` ≥ 0.5, estimate within 2°; `bash tools/confidence.sh`):
@@ -43,7 +46,6 @@ use super::beam::{BeamEnd, ScanBeams};
 use super::sine::sin_cos;
 use super::{Raster, Scan};
 use crate::angle::Angle;
-use crate::math::isqrt_ceil;
 use crate::pose::Pose;
 use fixed::types::I16F16;
 
@@ -56,7 +58,7 @@ pub const BEAM_TRIM_MIN_M: f32 = 0.02;
 /// … and at most this, metres.
 pub const BEAM_TRIM_MAX_M: f32 = 0.3;
 /// Gauss–Newton iterations at most.
-pub const BEAM_FIT_MAX_ITERATIONS: u8 = 10;
+pub const BEAM_FIT_MAX_ITERATIONS: u8 = 8;
 /// Matched points below which no step is taken.
 pub const BEAM_FIT_MIN_PAIRS: u16 = 10;
 /// The refinement may move the rotation by at most this, degrees; farther
@@ -70,7 +72,8 @@ pub const BEAM_FIT_MAX_SHIFT_CELLS: f32 = 3.0;
 const MAX_TURN: u32 = (BEAM_FIT_MAX_ROTATION_DEG as f64 / 360.0 * 4_294_967_296.0) as u32;
 /// [`BEAM_FIT_MAX_SHIFT_CELLS`] in Q16 cells.
 const MAX_SHIFT_Q16: i64 = (BEAM_FIT_MAX_SHIFT_CELLS as f64 * 65_536.0) as i64;
-/// Width of a bin of the residual histogram, metres.
+/// Width of a bin of the residual histogram, metres (rounded down to a
+/// power of two of Q16 cells).
 const BIN_M: f32 = 0.0025;
 /// Bins of the residual histogram (the last collects everything beyond).
 const BINS: usize = 64;
@@ -101,7 +104,8 @@ pub struct BeamFit {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum BeamFitError {
     /// The estimate is not one the beams can refine: a scale other than 1,
-    /// or a translation beyond the beams' reach.
+    /// a translation beyond the beams' reach, or a current scan of more
+    /// than 65 535 beams.
     Unsupported,
     /// Fewer than [`BEAM_FIT_MIN_PAIRS`] end points found a reference segment (too
     /// little overlap, no valid beams, a reference scan whose geometry is
@@ -127,35 +131,59 @@ struct Segments<'a> {
     counter_clockwise: bool,
     /// The beams cover the full circle: indices wrap.
     full_circle: bool,
+    /// `2⁴⁸ / (step / 2³²)` when the step is at least 2⁻¹⁶ turn (beam index
+    /// = turns·2³² times this, `>> 48`: within one beam).
+    inverse_step: Option<u64>,
     /// Squared longest segment, Q16 cells squared (`u64`).
     max_len_sq: u64,
+    /// Recent reference ends by beam index (direct-mapped).
+    cache: [(i64, Option<(i32, i32)>); CACHED_ENDS],
 }
 
+/// Reference ends [`Segments`] keeps (a power of two).
+const CACHED_ENDS: usize = 8;
+
 impl Segments<'_> {
-    /// The end of reference beam `k`, when it is a valid near return.
-    fn end(&self, k: i64) -> Option<(i32, i32)> {
+    /// The end of reference beam `k`, when it is a valid near return; from
+    /// the cache when it holds `k` (consecutive end points of the current
+    /// scan read overlapping reference beams).
+    fn end(&mut self, k: i64) -> Option<(i32, i32)> {
         let n = self.ranges.len() as i64;
-        let k = if self.full_circle {
+        let k = if self.full_circle && !(0..n).contains(&k) {
             k.rem_euclid(n.max(1))
         } else {
             k
         };
+        let slot = (k as usize) % CACHED_ENDS;
+        if let Some(&(_, end)) = self.cache.get(slot).filter(|c| c.0 == k) {
+            return end;
+        }
         let range = *self.ranges.get(usize::try_from(k).ok()?)?;
-        match self.beams.end(k as usize, range) {
+        let end = match self.beams.end(k as usize, range) {
             BeamEnd::Near { x, y } => Some((x, y)),
             _ => None,
+        };
+        if let Some(c) = self.cache.get_mut(slot) {
+            *c = (k, end);
         }
+        end
     }
 
-    /// The beam whose direction is at or just before `bearing` (2⁶⁴ = one
-    /// turn), −1 just before beam 0; `None` outside the field of view.
-    fn beam_before(&self, bearing: u64) -> Option<i64> {
+    /// The beam whose direction is at or just before `bearing` (2³² = one
+    /// turn), give or take one, −1 just before beam 0; `None` outside the
+    /// field of view. One multiplication by the step's reciprocal (exact
+    /// division for steps below 2⁻¹⁶ turn).
+    fn beam_before(&self, bearing: u32) -> Option<i64> {
+        let bearing = u64::from(bearing) << 32;
         let rel = if self.counter_clockwise {
             bearing.wrapping_sub(self.start)
         } else {
             self.start.wrapping_sub(bearing)
         };
-        let beam = rel.checked_div(self.step)?;
+        let beam = match self.inverse_step {
+            Some(inverse) => ((rel >> 32) * inverse) >> 48,
+            None => rel.checked_div(self.step)?,
+        };
         if beam <= self.ranges.len() as u64 {
             Some(beam as i64)
         } else if rel.wrapping_neg() <= self.step {
@@ -166,42 +194,58 @@ impl Segments<'_> {
     }
 
     /// The signed distance (Q16 cells) of `p` (Q16 cells) to the line of the
-    /// nearest usable segment around its bearing, with that line's unit
-    /// normal (Q15).
-    fn nearest(&self, p: (i64, i64)) -> Option<(i64, (i64, i64))> {
+    /// usable segment around its bearing whose midpoint is nearest, with
+    /// that line's unit normal (Q15). The choice needs no root or division;
+    /// the chosen segment's normal takes one of each.
+    fn nearest(&mut self, p: (i64, i64)) -> Option<(i64, (i64, i64))> {
         let (dx, dy) = (
             p.0 - i64::from(self.origin.0),
             p.1 - i64::from(self.origin.1),
         );
-        let beam = self.beam_before(u64::from(atan2_turns(dy, dx)) << 32)?;
-        let mut best: Option<(i64, (i64, i64))> = None;
+        let beam = self.beam_before(atan2_turns(dy, dx))?;
+        let mut best: Option<(u32, (i64, i64), (i64, i64))> = None;
         let mut b = self.end(beam - 1);
-        for k in beam - 1..=beam + 1 {
+        let mut k = beam - 1;
+        while k <= beam + 1 {
             let a = b;
             b = self.end(k + 1);
+            k += 1;
             let (Some(a), Some(b)) = (a, b) else {
                 continue;
             };
-            let (ex, ey) = (
-                i64::from(b.0) - i64::from(a.0),
-                i64::from(b.1) - i64::from(a.1),
+            let (a, b) = (
+                (i64::from(a.0), i64::from(a.1)),
+                (i64::from(b.0), i64::from(b.1)),
             );
-            let len_sq = (ex * ex + ey * ey) as u64;
+            let e = (b.0 - a.0, b.1 - a.1);
+            let len_sq = (e.0 * e.0 + e.1 * e.1) as u64;
             if len_sq == 0 || len_sq > self.max_len_sq {
                 continue;
             }
-            let len = isqrt_ceil(len_sq) as i64;
-            let (Some(nx), Some(ny)) = ((-ey << 15).checked_div(len), (ex << 15).checked_div(len))
-            else {
-                continue;
-            };
-            let n = (nx, ny);
-            let r = (n.0 * (p.0 - i64::from(a.0)) + n.1 * (p.1 - i64::from(a.1))) >> 15;
-            if best.is_none_or(|(s, _)| r.abs() < s.abs()) {
-                best = Some((r, n));
+            // 2·(p − midpoint) to 1/16 cell, squared in 32 bits (beyond
+            // 2¹¹ cells every candidate is as far).
+            let coarse = |v: i64| (v >> 12).clamp(-(1 << 15), 1 << 15) as i32;
+            let (mx, my) = (coarse(2 * p.0 - a.0 - b.0), coarse(2 * p.1 - a.1 - b.1));
+            let far = (mx * mx) as u32 + (my * my) as u32;
+            if best.is_none_or(|(f, _, _)| far < f) {
+                best = Some((far, a, e));
             }
         }
-        best
+        let (_, a, e) = best?;
+        // The normal to 2⁻¹⁴: e shifted below 2¹⁵, so that the root and the
+        // one division (a reciprocal) are 32-bit.
+        let drop =
+            (64 - (e.0.unsigned_abs() | e.1.unsigned_abs()).leading_zeros()).saturating_sub(15);
+        let (ex, ey) = ((e.0 >> drop) as i32, (e.1 >> drop) as i32);
+        let len = ((ex * ex + ey * ey) as u32).isqrt().max(1) as i32;
+        // |e| ≤ len: each product below 2³⁰.
+        let inverse = (1 << 30) / len;
+        let n = (
+            i64::from((-ey * inverse) >> 15),
+            i64::from((ex * inverse) >> 15),
+        );
+        let r = (n.0 * (p.0 - a.0) + n.1 * (p.1 - a.1)) >> 15;
+        Some((r, n))
     }
 }
 
@@ -237,6 +281,9 @@ struct Normal {
 }
 
 impl Normal {
+    /// Adds one point. With `|J₁|, |J₂| ≤ 2¹⁵`, `|J₃| ≤ 2²²`, `|r| ≤ 2²⁴`
+    /// and at most 2¹⁶ points (what the fit guarantees) no sum can reach
+    /// 2⁶³: plain additions.
     fn add(&mut self, j: [i64; 3], r: i64) {
         let [a, b, c] = j;
         for (sum, term) in self
@@ -244,13 +291,13 @@ impl Normal {
             .iter_mut()
             .zip([a * a, a * b, a * c, b * b, b * c, c * c])
         {
-            *sum = sum.saturating_add(term);
+            *sum = sum.wrapping_add(term);
         }
         for (sum, ji) in self.b.iter_mut().zip(j) {
-            *sum = sum.saturating_add(ji * r);
+            *sum = sum.wrapping_add(ji * r);
         }
         self.pairs = self.pairs.saturating_add(1);
-        self.r_sq = self.r_sq.saturating_add((r * r) >> 16);
+        self.r_sq = self.r_sq.wrapping_add((r * r) >> 16);
     }
 
     /// The Gauss–Newton step: `δd` in Q16 cells and `δθ` as a binary angle
@@ -415,8 +462,9 @@ impl Raster {
     /// It refines the pose, it does not judge it: run it on the answer the
     /// estimator chose (its status says whether to trust that), and expect
     /// it to pull a wrong answer onto nearby walls rather than to fix it.
-    /// Cost: per iteration two passes over the current scan's beams, each
-    /// reading up to four reference beams per end point.
+    /// Cost: one pass over the current scan's beams per iteration, each end
+    /// point reading up to four reference beams (most from a small cache;
+    /// instructions on the microcontrollers: `budgets/TABLE.md`).
     pub fn refine_on_beams(
         &self,
         reference: &Scan<'_>,
@@ -424,7 +472,7 @@ impl Raster {
         alpha: Angle,
         translation: &Pose,
     ) -> Result<BeamFit, BeamFitError> {
-        if translation.scale != I16F16::ONE {
+        if translation.scale != I16F16::ONE || current.ranges.len() > usize::from(u16::MAX) {
             return Err(BeamFitError::Unsupported);
         }
         let ref_beams = ScanBeams::new(reference, self);
@@ -443,7 +491,7 @@ impl Raster {
         // n·step within one step of a turn: the beams close the circle.
         let span = u128::from(step) * reference.ranges.len() as u128;
         let full_circle = step > 0 && span + u128::from(step) / 2 >= 1 << 64;
-        let segments = Segments {
+        let mut segments = Segments {
             beams: ref_beams,
             ranges: reference.ranges,
             origin,
@@ -451,13 +499,18 @@ impl Raster {
             step,
             counter_clockwise,
             full_circle,
+            inverse_step: (step >> 32 >= 1 << 16).then(|| (1u64 << 48) / (step >> 32).max(1)),
             max_len_sq: max_len.saturating_mul(max_len),
+            cache: [(i64::MIN, None); CACHED_ENDS],
         };
-        let (trim_min, trim_max, bin) = (
-            q16(BEAM_TRIM_MIN_M),
-            q16(BEAM_TRIM_MAX_M),
-            q16(BIN_M).max(1),
+        // At most 256 cells (tiny cells): the sums' bound (`Normal::add`).
+        let (trim_min, trim_max) = (
+            q16(BEAM_TRIM_MIN_M).min(1 << 24),
+            q16(BEAM_TRIM_MAX_M).min(1 << 24),
         );
+        // Bins a power of two of Q16 cells wide, between ½ and 1 × BIN_M.
+        let bin_shift = 63 - q16(BIN_M).max(1).leading_zeros();
+        let bin = 1i64 << bin_shift;
         // The start: θ = −α, d = −R(θ)·t.
         let theta = alpha.0.wrapping_neg();
         let (tx, ty) = (
@@ -482,45 +535,29 @@ impl Raster {
             ((c * ux - s * uy) >> 16, (s * ux + c * uy) >> 16)
         });
         let mut pose = start_pose;
+        let residual_bin = |r: i64| {
+            usize::try_from(r.unsigned_abs() >> bin_shift).map_or(BINS - 1, |k| k.min(BINS - 1))
+        };
+        // The first iteration keeps every match within the widest trim;
+        // later ones trim at three times the previous iteration's median.
+        let mut trim = trim_max;
         let mut last = Normal::default();
         let mut iterations = 0;
         while iterations < BEAM_FIT_MAX_ITERATIONS {
             iterations += 1;
             let rot = cs(pose.theta);
-            // Pass 1: the median residual, from a histogram.
             let mut histogram = [0u16; BINS];
-            let mut matched = 0u32;
-            for_each_end(&cur_beams, current.ranges, |q| {
-                let p = pose.apply(rot, q);
-                if let Some((r, _)) = segments.nearest(p) {
-                    let k = usize::try_from(r.abs() / bin).unwrap_or(BINS - 1);
-                    if let Some(h) = histogram.get_mut(k.min(BINS - 1)) {
-                        *h = h.saturating_add(1);
-                    }
-                    matched += 1;
-                }
-            });
-            if matched < u32::from(BEAM_FIT_MIN_PAIRS) {
-                return Err(BeamFitError::TooFewPairs);
-            }
-            let mut below = 0u32;
-            let median_bin = histogram
-                .iter()
-                .position(|&h| {
-                    below += u32::from(h);
-                    2 * below >= matched
-                })
-                .unwrap_or(BINS - 1) as i64;
-            let trim = (3 * (median_bin + 1) * bin).max(trim_min).min(trim_max);
-            // Pass 2: the normal equations of the kept points.
             let mut normal = Normal::default();
             for_each_end(&cur_beams, current.ranges, |q| {
                 let p = pose.apply(rot, q);
                 if let Some((r, n)) = segments.nearest(p) {
+                    if let Some(h) = histogram.get_mut(residual_bin(r)) {
+                        *h = h.saturating_add(1);
+                    }
                     if r.abs() <= trim {
                         let (lx, ly) = (p.0 - pose.d.0, p.1 - pose.d.1);
                         // n × (p − d) rotated a quarter turn: ∂p/∂θ = (−l_y, l_x).
-                        let lever = (n.1 * lx - n.0 * ly) >> 23;
+                        let lever = ((n.1 * lx - n.0 * ly) >> 23).clamp(-(1 << 22), 1 << 22);
                         normal.add([n.0, n.1, lever], r);
                     }
                 }
@@ -528,6 +565,10 @@ impl Raster {
             if normal.pairs < BEAM_FIT_MIN_PAIRS {
                 return Err(BeamFitError::TooFewPairs);
             }
+            trim = trim_distance(&histogram, bin)
+                .ok_or(BeamFitError::TooFewPairs)?
+                .max(trim_min)
+                .min(trim_max);
             let ((sx, sy), turns) = normal.step(lock).ok_or(BeamFitError::Singular)?;
             last = normal;
             // Bounded steps (1024 cells, 1/8 turn) keep every product below
@@ -536,8 +577,8 @@ impl Raster {
             let turns = turns.clamp(-(1 << 29), 1 << 29);
             pose.d = (pose.d.0 + sx, pose.d.1 + sy);
             pose.theta = pose.theta.wrapping_add(turns as u32);
-            // Converged: below 10⁻³ cells and 10⁻⁵ rad (6 836 in 2³² turns).
-            if sx.abs().max(sy.abs()) < 66 && turns.abs() < 6_836 {
+            // Converged: below 0.01 cells and 10⁻⁴ rad (68 359 in 2³² turns).
+            if sx.abs().max(sy.abs()) < 655 && turns.abs() < 68_359 {
                 break;
             }
         }
@@ -572,6 +613,25 @@ impl Raster {
     }
 }
 
+/// Three times the median residual (Q16 cells) of a histogram of bins
+/// `bin` wide, from the median bin's upper edge; `None` below
+/// [`BEAM_FIT_MIN_PAIRS`] residuals.
+fn trim_distance(histogram: &[u16; BINS], bin: i64) -> Option<i64> {
+    let matched: u32 = histogram.iter().map(|&h| u32::from(h)).sum();
+    if matched < u32::from(BEAM_FIT_MIN_PAIRS) {
+        return None;
+    }
+    let mut below = 0u32;
+    let median = histogram
+        .iter()
+        .position(|&h| {
+            below += u32::from(h);
+            2 * below >= matched
+        })
+        .unwrap_or(BINS - 1) as i64;
+    Some(3 * (median + 1) * bin)
+}
+
 /// Calls `f` with every valid near end point of `scan` (Q16 cells).
 fn for_each_end(beams: &ScanBeams, ranges: &[f32], mut f: impl FnMut((i32, i32))) {
     for (i, &range) in ranges.iter().enumerate() {
@@ -582,40 +642,36 @@ fn for_each_end(beams: &ScanBeams, ranges: &[f32], mut f: impl FnMut((i32, i32))
 }
 
 /// `atan2(y, x)` as a binary angle (2³² = one turn), error below
-/// 2·10⁻⁵ rad; 0 for the origin.
+/// 2·10⁻⁴ rad (0.007°: it only picks beams, give or take one); 0 for the
+/// origin.
 fn atan2_turns(y: i64, x: i64) -> u32 {
     if x == 0 && y == 0 {
         return 0;
     }
     let (ax, ay) = (x.unsigned_abs(), y.unsigned_abs());
-    // z = min/max ∈ [0, 1] in Q30.
+    // z = min/max ∈ [0, 1].
     let (num, den, swapped) = if ay <= ax {
         (ay, ax, false)
     } else {
         (ax, ay, true)
     };
-    // Both below 2³² first, so that `num·2³⁰` fits a u64 (no 128-bit
-    // division on the Cortex-M).
-    let drop = 32u32.saturating_sub(den.leading_zeros());
-    let (num, den) = (num >> drop, (den >> drop).max(1));
-    let z = ((num << 30) / den) as i64;
+    // Both below 2¹⁶ first: one 32-bit division (the inputs to 2⁻¹⁵
+    // relative).
+    let drop = 48u32.saturating_sub(den.leading_zeros());
+    let (num, den) = ((num >> drop) as u32, ((den >> drop) as u32).max(1));
+    let z = ((num << 15) / den) as i32;
     // atan z on [0, 1] (Abramowitz & Stegun 4.4.47, error ≤ 10⁻⁵ rad),
-    // coefficients Q30, Horner in z².
-    const C: [i64; 5] = [
-        1_073_597_844,
-        -354_658_985,
-        193_426_211,
-        -91_411_436,
-        22_371_657,
-    ];
-    let z2 = (z * z) >> 30;
+    // z and the coefficients Q15, Horner in z² with 32-bit products.
+    const C: [i32; 5] = [32_763, -10_823, 5_903, -2_790, 683];
+    let z2 = (z * z) >> 15;
     let mut acc = C[4];
     for &c in C[..4].iter().rev() {
-        acc = c + ((acc * z2) >> 30);
+        acc = c + ((acc * z2) >> 15);
     }
-    let radians_q30 = (acc * z) >> 30;
-    // radians → turns·2³²: × 2³²/(2π) = 683 565 275.58.
-    let mut turns = (radians_q30 * 683_565_276) >> 30;
+    let radians_q15 = (acc * z) >> 15;
+    // radians → turns·2³²: × 2³²/(2π) / 2¹⁵ = 20 860.76 (2¹⁵·π/4 times
+    // that fits an i32).
+    let mut turns = i64::from(radians_q15 * 20_861);
     if swapped {
         turns = (1 << 30) - turns;
     }
@@ -722,7 +778,7 @@ mod tests {
                 worst = worst.max(diff.abs());
             }
         }
-        assert!(worst < 2e-5, "{worst}");
+        assert!(worst < 2e-4, "{worst}");
         assert_eq!(atan2_turns(0, 0), 0);
         assert_eq!(atan2_turns(0, 5), 0);
         assert_eq!(atan2_turns(5, 0), 1 << 30);
