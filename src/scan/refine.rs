@@ -203,7 +203,8 @@ impl Segments<'_> {
             p.1 - i64::from(self.origin.1),
         );
         let beam = self.beam_before(atan2_turns(dy, dx))?;
-        let mut best: Option<(u32, (i64, i64), (i64, i64))> = None;
+        // (squared distance to the midpoint, start, direction)
+        let mut best: Option<(u32, Point, Point)> = None;
         let mut b = self.end(beam - 1);
         let mut k = beam - 1;
         while k <= beam + 1 {
@@ -248,6 +249,9 @@ impl Segments<'_> {
         Some((r, n))
     }
 }
+
+/// A point or a vector, Q16 cells, centred and y up.
+type Point = (i64, i64);
 
 /// The current pose of the fit: `p = R(θ)·q + d`.
 #[derive(Clone, Copy)]
