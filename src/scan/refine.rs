@@ -36,7 +36,7 @@
 //! [`ScanBeams::new`] does. Measured on the shared real pairs
 //! (`overlap_gt` ≥ 0.5, estimate within 2°; `bash tools/confidence.sh`):
 //! the median rotation error falls from 0.249° to 0.229° at 256² and from
-//! 0.321° to 0.235° at 128², the median translation error from 2.6 to
+//! 0.321° to 0.231° at 128², the median translation error from 2.6 to
 //! 2.3 cm and from 3.4 to 2.4 cm; the files' own ground truth agrees with a
 //! float beam-level fit only to about 0.19° (`tools/beam_checks.py
 //! refine`). Cost on the microcontroller: `budgets/TABLE.md`, real-scan
