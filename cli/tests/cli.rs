@@ -558,8 +558,8 @@ fn the_default_work_budget_cuts_no_real_pair() {
 /// size, on the first 400 pairs of two buildings: among the pairs whose
 /// views overlap (`overlap_gt` ≥ 0.5) and whose grid estimate is within
 /// 2°, the median rotation and translation errors fall (here 391 pairs:
-/// 0.241° → 0.161°, 2.3 → 1.9 cm; pooled over all shared pairs 0.321° →
-/// 0.236°, 3.4 → 2.4 cm); `--no-beam-refine` gives the grid's pose and no
+/// 0.241° → 0.167°, 2.3 → 1.9 cm; pooled over all shared pairs 0.321° →
+/// 0.231°, 3.4 → 2.4 cm); `--no-beam-refine` gives the grid's pose and no
 /// `beam_fit`.
 #[test]
 fn the_refinement_on_the_beams_brings_real_pairs_closer_to_the_truth() {
