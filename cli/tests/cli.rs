@@ -514,6 +514,16 @@ fn real_data(name: &str) -> Option<String> {
     }
 }
 
+/// The tool's JSON lines for `args`, which must succeed.
+fn scan_lines(args: &[&str]) -> Vec<serde_json::Value> {
+    let o = tool(args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    stdout(&o)
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .collect()
+}
+
 /// The default work budget (`Thresholds::search_budget`, 2²⁶ grid rows)
 /// cuts none of the first 150 pairs of each FLIRT file at 128² (the most
 /// any shared pair spends there is 10.0 M rows), and a budget of 2²⁰ rows
@@ -535,12 +545,7 @@ fn the_default_work_budget_cuts_no_real_pair() {
             args.extend(["--search-budget", b]);
         }
         args.extend(paths.iter().map(String::as_str));
-        let o = tool(&args);
-        assert!(o.status.success(), "{}", stderr(&o));
-        stdout(&o)
-            .lines()
-            .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
-            .collect::<Vec<_>>()
+        scan_lines(&args)
     };
     let status = |v: &serde_json::Value| v["status"].as_str().unwrap_or("").to_string();
     let default = run(None);
@@ -576,12 +581,7 @@ fn the_refinement_on_the_beams_brings_real_pairs_closer_to_the_truth() {
         let path = dir.join(file).display().to_string();
         let mut args = vec!["scans", "-q", "--size", "128", "--limit", "200", &path];
         args.extend(extra);
-        let o = tool(&args);
-        assert!(o.status.success(), "{}", stderr(&o));
-        stdout(&o)
-            .lines()
-            .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
-            .collect::<Vec<_>>()
+        scan_lines(&args)
     };
     let (mut rotation, mut translation) = ([vec![], vec![]], [vec![], vec![]]);
     for (file, text) in files.iter().zip(&texts) {

@@ -5,6 +5,23 @@
 /// A wall from `.0` to `.1`, metres, world frame.
 pub type Wall = ((f64, f64), (f64, f64));
 
+/// A 10 m × 8 m L-shaped room with a pillar and a cupboard, metres (the
+/// scene of the scan tests: every direction of translation observable
+/// from most poses).
+pub fn l_room() -> Vec<Wall> {
+    vec![
+        ((0.0, 0.0), (10.0, 0.0)),
+        ((10.0, 0.0), (10.0, 4.0)),
+        ((10.0, 4.0), (5.0, 4.0)),
+        ((5.0, 4.0), (5.0, 8.0)),
+        ((5.0, 8.0), (0.0, 8.0)),
+        ((0.0, 8.0), (0.0, 0.0)),
+        ((2.0, 2.0), (2.6, 2.0)),
+        ((2.6, 2.0), (2.6, 2.6)),
+        ((7.5, 3.0), (9.0, 3.0)),
+    ]
+}
+
 /// A simulated 2D laser: `beams` beams from `angle_min` in steps of
 /// `angle_increment` (radians, counter-clockwise from the robot's x axis),
 /// no return beyond `max_range` (reported as `max_range`).

@@ -5,7 +5,7 @@
 //! truth well below a cell; it refuses a start it would have to move too
 //! far, and inputs it cannot use, with a typed error.
 
-use host_tests::raycast::{Laser, Wall};
+use host_tests::raycast::{l_room as room, Laser, Wall};
 use hough_heading::{
     estimator, grid, Angle, BeamFitError, FreeSpace, Mode, Pose, Raster, Scan, Score, SensorOffset,
     Status,
@@ -13,21 +13,6 @@ use hough_heading::{
 
 type G128 = grid!(128, 128);
 type E128 = estimator!(128, 128, 360);
-
-/// An L-shaped room with a pillar and a cupboard, metres.
-fn room() -> Vec<Wall> {
-    vec![
-        ((0.0, 0.0), (10.0, 0.0)),
-        ((10.0, 0.0), (10.0, 4.0)),
-        ((10.0, 4.0), (5.0, 4.0)),
-        ((5.0, 4.0), (5.0, 8.0)),
-        ((5.0, 8.0), (0.0, 8.0)),
-        ((0.0, 8.0), (0.0, 0.0)),
-        ((2.0, 2.0), (2.6, 2.0)),
-        ((2.6, 2.0), (2.6, 2.6)),
-        ((7.5, 3.0), (9.0, 3.0)),
-    ]
-}
 
 /// A 270° laser of 541 beams, 30 m.
 fn laser() -> Laser {

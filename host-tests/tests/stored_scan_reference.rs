@@ -5,7 +5,7 @@
 //! reference, truncated or altered (a raster `Raster` never makes among
 //! them) are refused with a typed error.
 
-use host_tests::raycast::{Laser, Wall};
+use host_tests::raycast::{l_room as room, Laser};
 use hough_heading::{
     estimator, grid, scan_reference, stages::REFERENCE_FORMAT, stages::SCAN_REFERENCE_FORMAT,
     Angle, Error, FreeSpace, Mode, Raster, Reference, Scan, ScanReference, SensorOffset, Status,
@@ -14,21 +14,6 @@ use hough_heading::{
 type G128 = grid!(128, 128);
 type E128 = estimator!(128, 128, 360);
 type Stored = scan_reference!(128, 128, 360);
-
-/// An L-shaped room with a pillar and a cupboard.
-fn room() -> Vec<Wall> {
-    vec![
-        ((0.0, 0.0), (10.0, 0.0)),
-        ((10.0, 0.0), (10.0, 4.0)),
-        ((10.0, 4.0), (5.0, 4.0)),
-        ((5.0, 4.0), (5.0, 8.0)),
-        ((5.0, 8.0), (0.0, 8.0)),
-        ((0.0, 8.0), (0.0, 0.0)),
-        ((2.0, 2.0), (2.6, 2.0)),
-        ((2.6, 2.0), (2.6, 2.6)),
-        ((7.5, 3.0), (9.0, 3.0)),
-    ]
-}
 
 /// The occupied and free cells of a 270° scan taken at `pose` (metres,
 /// radians) in [`room`].
