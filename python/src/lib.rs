@@ -270,7 +270,12 @@ pub fn scan_answer(
     let text = serde_json::to_string(&OutputLine::of(index, p))
         .map_err(|e| format!("JSON output: {e}"))?;
     let round = |v: f64, digits| scans::round(v, digits);
-    let extras = p.estimate.translation.map(|t| {
+    // The reported pose: refined on the beams when the fit succeeded.
+    let translation = match &p.beam_fit {
+        Some(Ok(fit)) => Some(fit.translation),
+        _ => p.estimate.translation,
+    };
+    let extras = translation.map(|t| {
         (
             round(t.x.to_num::<f64>(), 3),
             round(t.y.to_num::<f64>(), 3),

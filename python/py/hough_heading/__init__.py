@@ -690,8 +690,8 @@ def estimate_scans(
     ``beam_fit``. ``dtheta_deg``, ``dx_m`` and ``dy_m`` are the pose refined
     on the beams (the tool's default; ``beam_fit`` says how many end points
     it matched, or why it ``kept`` the grid's pose);
-    :attr:`Estimate.translation_cells` and :attr:`Estimate.scale` add the
-    raw pose on the grids, before that refinement.
+    :attr:`Estimate.translation_cells` and :attr:`Estimate.scale` give the
+    same pose on the grids (cells).
 
     Grids: ``size`` × ``size`` cells (64, 128, 256) centred on each sensor;
     ``cell`` metres per cell, or ``None`` for the tool's default (per pair,
