@@ -34,8 +34,9 @@
 //! assert_ne!(estimate.status, Status::NoStructure);
 //! ```
 //!
-//! Laser scans become grids with a [`Raster`] ([`Raster::rasterize`]), and an
-//! estimate on two rasterised scans becomes the robot's [`Motion`] with
+//! Laser scans become grids with a [`Raster`] ([`Raster::rasterize`]), an
+//! estimate on two rasterised scans is refined on their beams with
+//! [`Raster::refine_on_beams`], and becomes the robot's [`Motion`] with
 //! [`Raster::motion`].
 //!
 //! # Conventions
@@ -65,7 +66,7 @@
 //! | `pose/` | translation fit, scale search, and the verification's pyramid, branch-and-bound search and ICP |
 //! | `reference` | a prepared reference grid and its bytes |
 //! | `estimate/` | the orchestration ([`Estimator`]), the answer types, the verification driver |
-//! | `scan`, `motion` | laser scan → grid; estimate → robot motion |
+//! | `scan`, `motion` | laser scan → grid and free space; the estimate refined on the beams (`scan/refine`); estimate → robot motion |
 //!
 //! A change goes where its stage is: a new vote scheme in `accumulator`, a
 //! new half-turn test in `direction`, another pose search in `pose/`.
@@ -98,7 +99,8 @@
 //!   ([`MAX_CANDIDATES`]), [`HalfTurnTest`] / [`HalfTurn`], [`Pose`]
 //!   (the pose: translation, scale, residual);
 //! * scans: [`Scan`], [`SensorOffset`], [`Raster`], [`ScanStats`],
-//!   [`FreeSpace`] (what the beams saw through), [`Motion`].
+//!   [`FreeSpace`] (what the beams saw through), [`BeamFit`] /
+//!   [`BeamFitError`] (the refinement on the beams), [`Motion`].
 //!
 //! Under [`config`]: the sizes (`row_words`, `half_turn_steps`, `rho_bins`,
 //! `pyramid_words`, `recommended_n_theta`, …). Under [`stages`]: every
