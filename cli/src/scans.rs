@@ -6,8 +6,8 @@
 //! summary.
 
 use hough_heading::{
-    BeamFit, BeamFitError, Candidate, Estimate, HalfTurn, Mode, Prior, Raster, Scan, ScanStats,
-    Score, SensorOffset,
+    Angle, BeamFit, BeamFitError, Candidate, Estimate, HalfTurn, Mode, Pose, Prior, Raster, Scan,
+    ScanStats, Score, SensorOffset,
 };
 use serde::{Deserialize, Serialize};
 
@@ -199,10 +199,8 @@ pub fn estimate_with_prior(
                 .translation
                 .filter(|_| options.beam_refine)
                 .map(|t| raster.refine_on_beams(&s1, &s2, estimate.alpha, &t));
-            let motion = match beam_fit {
-                Some(Ok(fit)) => raster.motion(fit.alpha, Some(&fit.translation)),
-                _ => raster.motion(estimate.alpha, estimate.translation.as_ref()),
-            };
+            let (alpha, translation) = reported_pose(&estimate, beam_fit.as_ref());
+            let motion = raster.motion(alpha, translation.as_ref());
             PairEstimate {
                 cell: raster.cell(),
                 dtheta_deg: f64::from(motion.dtheta).to_degrees(),
@@ -215,6 +213,18 @@ pub fn estimate_with_prior(
             }
         })
         .collect())
+}
+
+/// The pose the tool reports for `estimate`: the fit on the beams when it
+/// succeeded, else the grid estimate's.
+pub fn reported_pose(
+    estimate: &Estimate,
+    fit: Option<&Result<BeamFit, BeamFitError>>,
+) -> (Angle, Option<Pose>) {
+    match fit {
+        Some(Ok(fit)) => (fit.alpha, Some(fit.translation)),
+        _ => (estimate.alpha, estimate.translation),
+    }
 }
 
 /// The status as a lower-case word: the names of the firmware's result

@@ -271,10 +271,7 @@ pub fn scan_answer(
         .map_err(|e| format!("JSON output: {e}"))?;
     let round = |v: f64, digits| scans::round(v, digits);
     // The reported pose: refined on the beams when the fit succeeded.
-    let translation = match &p.beam_fit {
-        Some(Ok(fit)) => Some(fit.translation),
-        _ => p.estimate.translation,
-    };
+    let (_, translation) = scans::reported_pose(&p.estimate, p.beam_fit.as_ref());
     let extras = translation.map(|t| {
         (
             round(t.x.to_num::<f64>(), 3),

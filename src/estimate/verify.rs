@@ -15,6 +15,7 @@ use crate::pose::agreement::{agreement, Agreement};
 use crate::pose::icp::refine;
 use crate::pose::pyramid::Pyramid;
 use crate::pose::search::{Aligner, Placement};
+use crate::pose::translation::without_component;
 use crate::pose::Pose;
 use crate::reference::Reference;
 use crate::scan::FreeSpace;
@@ -516,11 +517,8 @@ fn verified_translation<const N: usize>(
     let mut tx = ((-(cos * u_q8.0 - sin * u_q8.1) >> 7) * s) >> 16;
     let mut ty = ((-(sin * u_q8.0 + cos * u_q8.1) >> 7) * s) >> 16;
     let unobservable = fit.and_then(|f| f.unobservable);
-    if let Some((dx, dy)) = unobservable {
-        let (dx, dy) = (i64::from(dx.to_bits()), i64::from(dy.to_bits()));
-        let along = (tx * dx + ty * dy) >> 16;
-        tx -= (along * dx) >> 16;
-        ty -= (along * dy) >> 16;
+    if let Some(u) = unobservable {
+        (tx, ty) = without_component((tx, ty), u);
     }
     let clamp =
         |v: i64| I16F16::from_bits(v.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32);

@@ -67,6 +67,14 @@ pub struct Pose {
     pub unobservable: Option<(I16F16, I16F16)>,
 }
 
+/// `t` (Q16) without its component along the unit vector `u` (Q16): what a
+/// [`Pose`] keeps of a translation along its unobservable direction.
+pub(crate) fn without_component(t: (i64, i64), u: (I16F16, I16F16)) -> (i64, i64) {
+    let (ux, uy) = (i64::from(u.0.to_bits()), i64::from(u.1.to_bits()));
+    let along = (t.0 * ux + t.1 * uy) >> 16;
+    (t.0 - ((along * ux) >> 16), t.1 - ((along * uy) >> 16))
+}
+
 /// A direction is unobservable when the small eigenvalue of `Σ w n nᵀ` is
 /// below 0.05 times the large one (normals within ~13° of each other):
 /// `λ₂ < 0.05·λ₁` ⇔ `det / trace² < 0.05 / 1.05² = 20 / 441`.

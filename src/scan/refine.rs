@@ -46,6 +46,7 @@ use super::beam::{BeamEnd, ScanBeams};
 use super::sine::sin_cos;
 use super::{Raster, Scan};
 use crate::angle::Angle;
+use crate::pose::translation::without_component;
 use crate::pose::Pose;
 use fixed::types::I16F16;
 
@@ -597,10 +598,8 @@ impl Raster {
         let (c, s) = cs(pose.theta);
         let (dx, dy) = pose.d;
         let mut t = (-((c * dx + s * dy) >> 16), -((c * dy - s * dx) >> 16));
-        if let Some((ux, uy)) = translation.unobservable {
-            let (ux, uy) = (i64::from(ux.to_bits()), i64::from(uy.to_bits()));
-            let along = (t.0 * ux + t.1 * uy) >> 16;
-            t = (t.0 - ((along * ux) >> 16), t.1 - ((along * uy) >> 16));
+        if let Some(u) = translation.unobservable {
+            t = without_component(t, u);
         }
         let rms = (last.r_sq / i64::from(last.pairs.max(1))).max(0) as u64;
         Ok(BeamFit {
