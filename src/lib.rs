@@ -139,7 +139,10 @@ pub use motion::Motion;
 pub use pose::scale::ScaleRange;
 pub use pose::Pose;
 pub use reference::{Reference, ScanReference};
-pub use scan::{BeamFit, BeamFitError, FreeSpace, Raster, Scan, ScanStats, SensorOffset};
+pub use scan::{
+    BeamAgreement, BeamCheck, BeamFit, BeamFitError, FreeSpace, Raster, Scan, ScanStats,
+    SensorOffset,
+};
 
 /// The pipeline's stages on their own, below the [`Estimator`]: Hough votes,
 /// signatures, the correlation, profile matches, the paper's direction
@@ -163,8 +166,9 @@ pub mod stages {
     pub use crate::scan::{
         range_percentile, BeamEnd, ScanBeams, AUTO_MAX_RADIUS_M, AUTO_MIN_RADIUS_M,
         AUTO_PERCENTILE, BEAM_FAR_CELLS, BEAM_FIT_MAX_ITERATIONS, BEAM_FIT_MAX_ROTATION_DEG,
-        BEAM_FIT_MAX_SHIFT_CELLS, BEAM_FIT_MIN_PAIRS, BEAM_NEAR_CELLS, BEAM_SEGMENT_MAX_M,
-        BEAM_TRIM_MAX_M, BEAM_TRIM_MIN_M, FREE_MARGIN_CELLS, FREE_MARGIN_SHIFT,
+        BEAM_FIT_MAX_SHIFT_CELLS, BEAM_FIT_MIN_PAIRS, BEAM_MATCH_M, BEAM_NEAR_CELLS,
+        BEAM_SEEN_THROUGH_M, BEAM_SEEN_THROUGH_WEIGHT, BEAM_SEGMENT_MAX_M, BEAM_TRIM_MAX_M,
+        BEAM_TRIM_MIN_M, FREE_MARGIN_CELLS, FREE_MARGIN_SHIFT,
     };
     pub use crate::signature::{ColumnStats, PeakKind, Signature, ASYMMETRY_FRACTION_BITS};
     pub use crate::trig::{TrigTable, TRIG_FRACTION_BITS};

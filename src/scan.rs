@@ -53,11 +53,15 @@
 
 mod beam;
 mod free;
+mod judge;
 mod refine;
 mod sine;
 
 pub use beam::{BeamEnd, ScanBeams, BEAM_FAR_CELLS, BEAM_NEAR_CELLS};
 pub use free::{FreeSpace, FREE_MARGIN_CELLS, FREE_MARGIN_SHIFT};
+pub use judge::{
+    BeamAgreement, BeamCheck, BEAM_MATCH_M, BEAM_SEEN_THROUGH_M, BEAM_SEEN_THROUGH_WEIGHT,
+};
 pub use refine::{
     BeamFit, BeamFitError, BEAM_FIT_MAX_ITERATIONS, BEAM_FIT_MAX_ROTATION_DEG,
     BEAM_FIT_MAX_SHIFT_CELLS, BEAM_FIT_MIN_PAIRS, BEAM_SEGMENT_MAX_M, BEAM_TRIM_MAX_M,

@@ -244,6 +244,7 @@ fn demo_scans(source: Source<'_>) -> Result<(usize, usize), Fatal> {
         connect: Some(scans::DEFAULT_CONNECT_M),
         disc: false,
         beam_refine: true,
+        beam_check: true,
     };
     println!("\nReal laser scan pairs (256², N_θ = 360, improved mode; window = p90 of ranges; see data/README.md):");
     let (notes_path, notes) = source.read(SCANS_NOTES)?;

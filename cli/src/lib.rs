@@ -322,6 +322,10 @@ pub struct ScanGridArgs {
     /// beams' end points (`Raster::refine_on_beams`).
     #[arg(long)]
     pub no_beam_refine: bool,
+    /// Keep the grid's status even when the beams prefer another listed
+    /// rotation (`Raster::check_on_beams`).
+    #[arg(long)]
+    pub no_beam_check: bool,
 }
 
 impl ScanGridArgs {
@@ -336,6 +340,7 @@ impl ScanGridArgs {
             connect: (self.connect > 0.0).then_some(self.connect),
             disc: self.disc,
             beam_refine: !self.no_beam_refine,
+            beam_check: !self.no_beam_check,
         })
     }
 }

@@ -258,6 +258,8 @@ pub fn host_lines(bytes: &[u8], free_space: bool) -> Result<Vec<(u32, String)>, 
         connect: Some(scans::DEFAULT_CONNECT_M),
         disc: false,
         beam_refine: true,
+        // The firmware does not judge on the beams (yet): compare like with like.
+        beam_check: false,
     };
     let mut out = Vec::new();
     for (index, pair) in decode(bytes)? {

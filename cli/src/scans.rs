@@ -6,8 +6,8 @@
 //! summary.
 
 use hough_heading::{
-    Angle, BeamFit, BeamFitError, Candidate, Estimate, HalfTurn, Mode, Pose, Prior, Raster, Scan,
-    ScanStats, Score, SensorOffset,
+    Angle, BeamCheck, BeamFit, BeamFitError, Candidate, Estimate, HalfTurn, Mode, Pose, Prior,
+    Raster, Scan, ScanStats, Score, SensorOffset,
 };
 use serde::{Deserialize, Serialize};
 
@@ -117,6 +117,9 @@ pub struct RasterOptions {
     /// Refine the chosen pose on the beams' end points
     /// ([`Raster::refine_on_beams`]).
     pub beam_refine: bool,
+    /// Judge the candidates again on the beams and flag an answer they
+    /// contradict ([`Raster::check_on_beams`]).
+    pub beam_check: bool,
 }
 
 impl RasterOptions {
@@ -151,6 +154,8 @@ pub struct PairEstimate {
     /// `dtheta_deg` and `translation` then are) or why the grid's pose was
     /// kept.
     pub beam_fit: Option<Result<BeamFit, BeamFitError>>,
+    /// The candidates judged again on the beams, when that ran.
+    pub beam_check: Option<BeamCheck>,
 }
 
 /// Rasterizes both scans of `pair` into `engine` and estimates in each of
@@ -194,11 +199,18 @@ pub fn estimate_with_prior(
     Ok(modes
         .iter()
         .map(|&mode| {
-            let estimate = engine.estimate_with_prior(mode, prior);
+            let mut estimate = engine.estimate_with_prior(mode, prior);
             let beam_fit = estimate
                 .translation
                 .filter(|_| options.beam_refine)
                 .map(|t| raster.refine_on_beams(&s1, &s2, estimate.alpha, &t));
+            let beam_check = options
+                .beam_check
+                .then(|| raster.check_on_beams(&s1, &s2, &estimate))
+                .flatten();
+            if let Some(check) = &beam_check {
+                check.apply(&mut estimate);
+            }
             let (alpha, translation) = reported_pose(&estimate, beam_fit.as_ref());
             let motion = raster.motion(alpha, translation.as_ref());
             PairEstimate {
@@ -210,6 +222,7 @@ pub fn estimate_with_prior(
                 stats,
                 estimate,
                 beam_fit,
+                beam_check,
             }
         })
         .collect())
@@ -304,6 +317,10 @@ pub struct OutputLine {
     /// `dy_m` are then its pose unless it says `kept`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub beam_fit: Option<BeamFitLine>,
+    /// The candidates judged again on the beams, when that ran
+    /// (`Raster::check_on_beams`; `contradicts` flagged a confident answer).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub beam_check: Option<BeamCheckLine>,
     /// Beams of each scan dropped by reason, when any was (so a
     /// `no_structure` from unusable readings says why).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -376,6 +393,47 @@ impl BeamFitLine {
     }
 }
 
+/// What the beams said of the chosen pose and its best rival.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct BeamCheckLine {
+    /// The chosen pose's explained share (`BeamAgreement::explained`).
+    pub explained: f64,
+    /// Its seen-through share (`BeamAgreement::seen_through`).
+    pub seen_through: f64,
+    /// The best scored other rotation, when there was one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rival: Option<BeamRival>,
+    /// The rival scores higher than the chosen pose.
+    pub contradicts: bool,
+}
+
+/// The best other rotation on the beams.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct BeamRival {
+    /// Its heading change, degrees in (−180, 180].
+    pub dtheta_deg: f64,
+    /// Its explained share.
+    pub explained: f64,
+    /// Its seen-through share.
+    pub seen_through: f64,
+}
+
+impl BeamCheckLine {
+    fn of(check: &BeamCheck) -> Self {
+        let share = |v: Score| round(v.to_num::<f64>(), 4);
+        Self {
+            explained: share(check.chosen.explained),
+            seen_through: share(check.chosen.seen_through),
+            rival: check.rival.map(|(alpha, r)| BeamRival {
+                dtheta_deg: round(wrap_deg(-f64::from(alpha.to_degrees())), 4),
+                explained: share(r.explained),
+                seen_through: share(r.seen_through),
+            }),
+            contradicts: check.contradicts(),
+        }
+    }
+}
+
 /// The beams of one scan that set no cell, by reason.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct DroppedBeams {
@@ -442,6 +500,7 @@ impl OutputLine {
             columns: e.translation.map(|t| t.columns),
             unobservable,
             beam_fit: p.beam_fit.as_ref().map(|f| BeamFitLine::of(f, p.cell)),
+            beam_check: p.beam_check.as_ref().map(BeamCheckLine::of),
             dropped: p
                 .stats
                 .iter()
@@ -474,6 +533,7 @@ impl OutputLine {
             columns: None,
             unobservable: None,
             beam_fit: None,
+            beam_check: None,
             dropped: None,
             error: Some(message),
         }

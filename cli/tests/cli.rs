@@ -649,6 +649,7 @@ fn real_fr079_pairs_with_overlap_are_mostly_within_two_degrees() {
         connect: None,
         disc: false,
         beam_refine: true,
+        beam_check: true,
     };
     let (mut pairs, mut within) = (0, 0);
     for line in text.lines() {

@@ -206,6 +206,7 @@ fn fuzz_cli_scan_pairs() {
         connect: None,
         disc: false,
         beam_refine: true,
+        beam_check: true,
     };
     fuzz(
         "cli scan-pair lines",

@@ -158,6 +158,7 @@ impl ScanGrid {
                 disc,
                 // The tool's default: the chosen pose refined on the beams.
                 beam_refine: true,
+                beam_check: true,
             },
         })
     }

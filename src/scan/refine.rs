@@ -121,10 +121,10 @@ pub enum BeamFitError {
 }
 
 /// The reference scan's beams and where its sensor is.
-struct Segments<'a> {
+pub(super) struct Segments<'a> {
     beams: ScanBeams,
     ranges: &'a [f32],
-    origin: (i32, i32),
+    pub(super) origin: (i32, i32),
     /// Beam 0's direction and the magnitude of the step, 2⁶⁴ = one turn.
     start: u64,
     step: u64,
@@ -144,11 +144,45 @@ struct Segments<'a> {
 /// Reference ends [`Segments`] keeps (a power of two).
 const CACHED_ENDS: usize = 8;
 
+impl<'a> Segments<'a> {
+    /// The segments of `scan`'s beams on `raster`'s cells; `None` when the
+    /// scan's geometry is not finite or its sensor is far from the robot.
+    pub(super) fn new(raster: &Raster, scan: &Scan<'a>) -> Option<Self> {
+        let beams = ScanBeams::new(scan, raster);
+        let origin = beams.near_origin()?;
+        let (start, step) = beams.angles();
+        let max_len = ((f64::from(BEAM_SEGMENT_MAX_M) * raster.inv_cell * 65_536.0).min(1e12)
+            as i64)
+            .max(1) as u64;
+        let counter_clockwise = (step as i64) >= 0;
+        let step = if counter_clockwise {
+            step
+        } else {
+            step.wrapping_neg()
+        };
+        // n·step within one step of a turn: the beams close the circle.
+        let span = u128::from(step) * scan.ranges.len() as u128;
+        let full_circle = step > 0 && span + u128::from(step) / 2 >= 1 << 64;
+        Some(Self {
+            beams,
+            ranges: scan.ranges,
+            origin,
+            start,
+            step,
+            counter_clockwise,
+            full_circle,
+            inverse_step: (step >> 32 >= 1 << 16).then(|| (1u64 << 48) / (step >> 32).max(1)),
+            max_len_sq: max_len.saturating_mul(max_len),
+            cache: [(i64::MIN, None); CACHED_ENDS],
+        })
+    }
+}
+
 impl Segments<'_> {
     /// The end of reference beam `k`, when it is a valid near return; from
     /// the cache when it holds `k` (consecutive end points of the current
     /// scan read overlapping reference beams).
-    fn end(&mut self, k: i64) -> Option<(i32, i32)> {
+    pub(super) fn end(&mut self, k: i64) -> Option<(i32, i32)> {
         let n = self.ranges.len() as i64;
         let k = if self.full_circle && !(0..n).contains(&k) {
             k.rem_euclid(n.max(1))
@@ -174,7 +208,7 @@ impl Segments<'_> {
     /// turn), give or take one, −1 just before beam 0; `None` outside the
     /// field of view. One multiplication by the step's reciprocal (exact
     /// division for steps below 2⁻¹⁶ turn).
-    fn beam_before(&self, bearing: u32) -> Option<i64> {
+    pub(super) fn beam_before(&self, bearing: u32) -> Option<i64> {
         let bearing = u64::from(bearing) << 32;
         let rel = if self.counter_clockwise {
             bearing.wrapping_sub(self.start)
@@ -198,7 +232,7 @@ impl Segments<'_> {
     /// usable segment around its bearing whose midpoint is nearest, with
     /// that line's unit normal (Q15). The choice needs no root or division;
     /// the chosen segment's normal takes one of each.
-    fn nearest(&mut self, p: (i64, i64)) -> Option<(i64, (i64, i64))> {
+    pub(super) fn nearest(&mut self, p: (i64, i64)) -> Option<(i64, (i64, i64))> {
         let (dx, dy) = (
             p.0 - i64::from(self.origin.0),
             p.1 - i64::from(self.origin.1),
@@ -256,15 +290,15 @@ type Point = (i64, i64);
 
 /// The current pose of the fit: `p = R(θ)·q + d`.
 #[derive(Clone, Copy)]
-struct FitPose {
+pub(super) struct FitPose {
     /// θ = −α, binary (2³² = one turn).
-    theta: u32,
+    pub(super) theta: u32,
     /// `d`, Q16 cells.
-    d: (i64, i64),
+    pub(super) d: (i64, i64),
 }
 
 impl FitPose {
-    fn apply(&self, cos_sin: (i64, i64), q: (i32, i32)) -> (i64, i64) {
+    pub(super) fn apply(&self, cos_sin: (i64, i64), q: (i32, i32)) -> (i64, i64) {
         let (c, s) = cos_sin;
         let (x, y) = (i64::from(q.0), i64::from(q.1));
         (
@@ -480,34 +514,10 @@ impl Raster {
         if translation.scale != I16F16::ONE || current.ranges.len() > usize::from(u16::MAX) {
             return Err(BeamFitError::Unsupported);
         }
-        let ref_beams = ScanBeams::new(reference, self);
         let cur_beams = ScanBeams::new(current, self);
-        let origin = ref_beams.near_origin().ok_or(BeamFitError::TooFewPairs)?;
-        let (start, step) = ref_beams.angles();
+        let mut segments = Segments::new(self, reference).ok_or(BeamFitError::TooFewPairs)?;
         let inv_cell = self.inv_cell;
         let q16 = |metres: f32| (f64::from(metres) * inv_cell * 65_536.0).min(1e12) as i64;
-        let max_len = q16(BEAM_SEGMENT_MAX_M).max(1) as u64;
-        let counter_clockwise = (step as i64) >= 0;
-        let step = if counter_clockwise {
-            step
-        } else {
-            step.wrapping_neg()
-        };
-        // n·step within one step of a turn: the beams close the circle.
-        let span = u128::from(step) * reference.ranges.len() as u128;
-        let full_circle = step > 0 && span + u128::from(step) / 2 >= 1 << 64;
-        let mut segments = Segments {
-            beams: ref_beams,
-            ranges: reference.ranges,
-            origin,
-            start,
-            step,
-            counter_clockwise,
-            full_circle,
-            inverse_step: (step >> 32 >= 1 << 16).then(|| (1u64 << 48) / (step >> 32).max(1)),
-            max_len_sq: max_len.saturating_mul(max_len),
-            cache: [(i64::MIN, None); CACHED_ENDS],
-        };
         // At most 256 cells (tiny cells): the sums' bound (`Normal::add`).
         let (trim_min, trim_max) = (
             q16(BEAM_TRIM_MIN_M).min(1 << 24),
@@ -636,7 +646,7 @@ fn trim_distance(histogram: &[u16; BINS], bin: i64) -> Option<i64> {
 }
 
 /// Calls `f` with every valid near end point of `scan` (Q16 cells).
-fn for_each_end(beams: &ScanBeams, ranges: &[f32], mut f: impl FnMut((i32, i32))) {
+pub(super) fn for_each_end(beams: &ScanBeams, ranges: &[f32], mut f: impl FnMut((i32, i32))) {
     for (i, &range) in ranges.iter().enumerate() {
         if let BeamEnd::Near { x, y } = beams.end(i, range) {
             f((x, y));
@@ -647,7 +657,7 @@ fn for_each_end(beams: &ScanBeams, ranges: &[f32], mut f: impl FnMut((i32, i32))
 /// `atan2(y, x)` as a binary angle (2³² = one turn), error below
 /// 2·10⁻⁴ rad (0.007°: it only picks beams, give or take one); 0 for the
 /// origin.
-fn atan2_turns(y: i64, x: i64) -> u32 {
+pub(super) fn atan2_turns(y: i64, x: i64) -> u32 {
     if x == 0 && y == 0 {
         return 0;
     }

@@ -1,0 +1,296 @@
+//! The estimate's candidates judged again on the beams (issue 23): a
+//! second, independent opinion that flags an answer the beams contradict.
+//!
+//! The grid estimate decides on cells; the beams know more. For a pose,
+//! each scan's end points are laid into the other scan's frame
+//! ([`Raster::agreement_on_beams`], both ways) and scored:
+//!
+//! * **explained**: each point weighs `1 − (r / τ)²` (0 beyond τ =
+//!   [`BEAM_MATCH_M`]), `r` its distance to the line of the other scan's
+//!   segment around its bearing (the segments of
+//!   [`Raster::refine_on_beams`]), averaged over all the scan's end points;
+//! * **seen through**: the share of points nearer to the other sensor than
+//!   what every one of the four beams around their bearing measured, by
+//!   more than [`BEAM_SEEN_THROUGH_M`] plus 1/32 of that range: walls where
+//!   the other sensor saw free space.
+//!
+//! The score is explained minus [`BEAM_SEEN_THROUGH_WEIGHT`] × seen
+//! through, the mean of both directions. [`Raster::check_on_beams`] scores
+//! the chosen pose and every other listed rotation (each refined on the
+//! beams first); when one of them scores higher the beams contradict the
+//! grid's choice, and [`BeamCheck::apply`] flags the estimate.
+//!
+//! Measured on the shared real pairs (256², `N_θ` = 360, `bash
+//! tools/confidence.sh`): see `docs/confidence.md`. The weights come from
+//! an exhaustive float model of the decision on those same files
+//! (`tools/csm_model.py`): τ = 0.1 m and weight 2 were its best.
+//!
+//! # Numbers
+//!
+//! Integer per beam, as in the refinement: Q16 cells, a 32-bit arctangent,
+//! `i64` sums, one integer root per reference beam read.
+
+use super::beam::ScanBeams;
+use super::refine::{atan2_turns, for_each_end, FitPose, Segments};
+use super::sine::sin_cos;
+use super::{Raster, Scan};
+use crate::angle::Angle;
+use crate::pose::Pose;
+use crate::{Estimate, Score, Status};
+use fixed::types::I16F16;
+
+/// Distance from a segment's line beyond which an end point explains
+/// nothing, metres (τ).
+pub const BEAM_MATCH_M: f32 = 0.1;
+/// An end point is seen through when it is nearer to the other sensor than
+/// that sensor's ranges around its bearing by more than this, metres, plus
+/// 1/32 of the range.
+pub const BEAM_SEEN_THROUGH_M: f32 = 0.1;
+/// Weight of the seen-through share against the explained share.
+pub const BEAM_SEEN_THROUGH_WEIGHT: i32 = 2;
+
+/// How well a pose lays two scans onto each other, both ways
+/// ([`Raster::agreement_on_beams`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BeamAgreement {
+    /// Mean weight of the end points near the other scan's walls, in [0, 1]
+    /// (the mean of both directions).
+    pub explained: Score,
+    /// Share of the end points where the other sensor saw free space, in
+    /// [0, 1] (the mean of both directions).
+    pub seen_through: Score,
+}
+
+impl BeamAgreement {
+    /// `explained − BEAM_SEEN_THROUGH_WEIGHT · seen_through`, in [−2, 1].
+    pub fn score(&self) -> Score {
+        self.explained - self.seen_through * BEAM_SEEN_THROUGH_WEIGHT
+    }
+}
+
+/// The chosen pose and its strongest rival judged on the beams
+/// ([`Raster::check_on_beams`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BeamCheck {
+    /// The estimate's chosen pose.
+    pub chosen: BeamAgreement,
+    /// The best scored of the other listed rotations (the candidates and
+    /// the runner-up), at its pose refined on the beams when that
+    /// succeeded; `None` when there is none with a translation.
+    pub rival: Option<(Angle, BeamAgreement)>,
+}
+
+impl BeamCheck {
+    /// The beams prefer another rotation than the estimate's.
+    pub fn contradicts(&self) -> bool {
+        self.rival
+            .is_some_and(|(_, r)| r.score() > self.chosen.score())
+    }
+
+    /// Flags `estimate` when the beams contradict it: a confident answer
+    /// becomes [`Status::AmbiguousDirection`] (the rival within 45° of its
+    /// half turn) or [`Status::AmbiguousAxis`], with its confidence below
+    /// ½. Other statuses and everything else are kept.
+    pub fn apply(&self, estimate: &mut Estimate) {
+        let Some((rival, _)) = self.rival.filter(|_| self.contradicts()) else {
+            return;
+        };
+        if estimate.status != Status::Confident {
+            return;
+        }
+        let eighth = Angle(1 << 29);
+        estimate.status = if rival.distance(estimate.alpha + Angle::HALF_TURN) < eighth {
+            Status::AmbiguousDirection
+        } else {
+            Status::AmbiguousAxis
+        };
+        estimate.confidence = estimate.confidence.min(Score::from_bits((1 << 15) - 1));
+    }
+}
+
+impl Raster {
+    /// How well the pose `(alpha, t)` (the estimator's convention,
+    /// `p₂ = R(α)·p₁ + t`, cells of this raster) lays `current`'s end points
+    /// onto `reference`'s walls and the reverse, and how many of them land
+    /// where the other sensor saw through (see the module doc). `None` when
+    /// either scan's geometry is not finite or its sensor is far from the
+    /// robot, or a scan has no valid end point.
+    pub fn agreement_on_beams(
+        &self,
+        reference: &Scan<'_>,
+        current: &Scan<'_>,
+        alpha: Angle,
+        t: (I16F16, I16F16),
+    ) -> Option<BeamAgreement> {
+        let q16 = |metres: f32| (f64::from(metres) * self.inv_cell * 65_536.0).min(1e12) as i64;
+        // τ between 1/256 cell and 256 cells: τ² below 2⁴⁸.
+        let tau = q16(BEAM_MATCH_M).clamp(1 << 8, 1 << 24);
+        let margin = q16(BEAM_SEEN_THROUGH_M).clamp(0, 1 << 30);
+        let (tx, ty) = (i64::from(t.0.to_bits()), i64::from(t.1.to_bits()));
+        // As the refinement: a translation beyond the beams' reach.
+        if tx.abs().max(ty.abs()) >= 1 << 30 {
+            return None;
+        }
+        // current → reference: p = R(θ)·q + d, θ = −α, d = −R(θ)·t;
+        // reference → current: q = R(α)·p + t.
+        let theta = alpha.0.wrapping_neg();
+        let (s, c) = sin_cos(theta);
+        let (c, s) = (i64::from(c), i64::from(s));
+        let forward = FitPose {
+            theta,
+            d: (-((c * tx - s * ty) >> 16), -((s * tx + c * ty) >> 16)),
+        };
+        let backward = FitPose {
+            theta: alpha.0,
+            d: (tx, ty),
+        };
+        let mut into_reference = Segments::new(self, reference)?;
+        let mut into_current = Segments::new(self, current)?;
+        let a = one_way(
+            &mut into_reference,
+            &ScanBeams::new(current, self),
+            current.ranges,
+            &forward,
+            tau,
+            margin,
+        )?;
+        let b = one_way(
+            &mut into_current,
+            &ScanBeams::new(reference, self),
+            reference.ranges,
+            &backward,
+            tau,
+            margin,
+        )?;
+        let mean = |x: i64, y: i64| Score::from_bits(((x + y) / 2) as i32);
+        Some(BeamAgreement {
+            explained: mean(a.0, b.0),
+            seen_through: mean(a.1, b.1),
+        })
+    }
+
+    /// Judges `estimate` on the beams: each listed rotation with a
+    /// translation (the candidates and the runner-up, the chosen one
+    /// included), its grid pose refined on the beams first (kept when the
+    /// refinement refuses) with no direction held, so that every rotation
+    /// gets the same treatment (the reported translation drops its
+    /// unobservable component; the check must not). `None` when no listed
+    /// rotation within 5° of `estimate.alpha` has a translation or the beams
+    /// cannot score it.
+    ///
+    /// Cost: one refinement and one
+    /// [`agreement_on_beams`](Self::agreement_on_beams) per listed rotation
+    /// (at most five).
+    pub fn check_on_beams(
+        &self,
+        reference: &Scan<'_>,
+        current: &Scan<'_>,
+        estimate: &Estimate,
+    ) -> Option<BeamCheck> {
+        // Other rotations: 5° apart, the estimator's separation of candidates.
+        let separation = Angle(((5u64 << 32) / 360) as u32);
+        let mut chosen: Option<BeamAgreement> = None;
+        let mut rival: Option<(Angle, BeamAgreement)> = None;
+        let listed = estimate
+            .candidates
+            .iter()
+            .chain(estimate.runner_up.as_ref());
+        for candidate in listed {
+            let Some((x, y)) = candidate.translation else {
+                continue;
+            };
+            let is_chosen = candidate.alpha.distance(estimate.alpha) < separation;
+            if is_chosen && chosen.is_some() {
+                continue;
+            }
+            let grid = Pose {
+                x,
+                y,
+                scale: I16F16::ONE,
+                residual: I16F16::ZERO,
+                columns: 0,
+                unobservable: None,
+            };
+            let (a, p) = match self.refine_on_beams(reference, current, candidate.alpha, &grid) {
+                Ok(f) => (f.alpha, (f.translation.x, f.translation.y)),
+                Err(_) => (candidate.alpha, (x, y)),
+            };
+            let Some(agreement) = self.agreement_on_beams(reference, current, a, p) else {
+                continue;
+            };
+            if is_chosen {
+                chosen = Some(agreement);
+            } else if rival.is_none_or(|(_, r)| agreement.score() > r.score()) {
+                rival = Some((candidate.alpha, agreement));
+            }
+        }
+        Some(BeamCheck {
+            chosen: chosen?,
+            rival,
+        })
+    }
+}
+
+/// One direction of [`Raster::agreement_on_beams`]: `from`'s end points
+/// moved by `pose` into the frame of `into`. Returns the explained and the
+/// seen-through shares (Q16), `None` without end points.
+fn one_way(
+    into: &mut Segments<'_>,
+    from: &ScanBeams,
+    ranges: &[f32],
+    pose: &FitPose,
+    tau: i64,
+    margin: i64,
+) -> Option<(i64, i64)> {
+    let (s, c) = sin_cos(pose.theta);
+    let rot = (i64::from(c), i64::from(s));
+    let tau_sq = tau * tau;
+    let unit = (tau_sq >> 16).max(1);
+    let (mut explained, mut seen, mut count) = (0i64, 0i64, 0i64);
+    for_each_end(from, ranges, |q| {
+        count += 1;
+        let p = pose.apply(rot, q);
+        if let Some((r, _)) = into.nearest(p) {
+            let r = r.abs().min(tau);
+            explained += (tau_sq - r * r) / unit;
+        }
+        seen += i64::from(into.seen_through(p, margin));
+    });
+    (count > 0).then(|| (explained / count, (seen << 16) / count))
+}
+
+impl Segments<'_> {
+    /// `p` (Q16 cells) lies nearer to the sensor than each of the four
+    /// beams around its bearing measured, by more than `margin` (Q16
+    /// cells) plus 1/32 of that range; false outside the field of view or
+    /// next to a beam without a near return.
+    fn seen_through(&mut self, p: (i64, i64), margin: i64) -> bool {
+        let (dx, dy) = (
+            p.0 - i64::from(self.origin.0),
+            p.1 - i64::from(self.origin.1),
+        );
+        // Ranges are below 2³⁰ Q16 cells: farther points are behind them.
+        if dx.abs().max(dy.abs()) >= 1 << 30 {
+            return false;
+        }
+        let Some(beam) = self.beam_before(atan2_turns(dy, dx)) else {
+            return false;
+        };
+        let mut nearest = i64::MAX;
+        for k in beam - 1..=beam + 2 {
+            let Some(e) = self.end(k) else {
+                return false;
+            };
+            let (ex, ey) = (
+                i64::from(e.0) - i64::from(self.origin.0),
+                i64::from(e.1) - i64::from(self.origin.1),
+            );
+            let range = ((ex * ex + ey * ey) as u64).isqrt() as i64;
+            nearest = nearest.min(range);
+        }
+        let limit = nearest - nearest / 32 - margin;
+        limit > 0 && dx * dx + dy * dy < limit * limit
+    }
+}
