@@ -1,0 +1,263 @@
+//! The check on the beams (`Raster::agreement_on_beams`,
+//! `Raster::check_on_beams`, issue 23) against ray-cast scans whose
+//! relative pose is known exactly (`host_tests::raycast`) and against an
+//! `f64` reimplementation of its two shares written from the module doc:
+//! the integer shares agree with it, the true pose explains nearly every
+//! end point and sees through none, a wrong rotation scores far lower, and
+//! an estimate whose listed rival is the truth is flagged.
+
+use host_tests::raycast::{l_room as room, Laser};
+use hough_heading::stages::{
+    BEAM_MATCH_M, BEAM_SEEN_THROUGH_M, BEAM_SEEN_THROUGH_WEIGHT, BEAM_SEGMENT_MAX_M,
+};
+use hough_heading::{
+    estimator, grid, Angle, Candidate, FreeSpace, Mode, Raster, Scan, Score, SensorOffset, Status,
+};
+
+type G128 = grid!(128, 128);
+type E128 = estimator!(128, 128, 360);
+
+/// A 180° laser of 361 beams, 30 m (the shared files' geometry).
+fn laser() -> Laser {
+    Laser::centred(180.0, 361, 30.0)
+}
+
+fn scan<'a>(laser: &Laser, ranges: &'a [f32]) -> Scan<'a> {
+    Scan {
+        ranges,
+        angle_min: laser.angle_min as f32,
+        angle_increment: laser.angle_increment as f32,
+        max_range: laser.max_range as f32,
+        offset: SensorOffset::default(),
+    }
+}
+
+/// 9 m radius on 128 cells (0.14 m cells), segments up to 0.3 m.
+fn raster() -> Raster {
+    Raster::with_radius(9.0, 128).unwrap().connect(0.3)
+}
+
+/// The robot at `b` in the robot frame at `a` (world poses): `(d, dθ)`.
+fn relative(a: (f64, f64, f64), b: (f64, f64, f64)) -> ((f64, f64), f64) {
+    let (s, c) = a.2.sin_cos();
+    let (x, y) = (b.0 - a.0, b.1 - a.1);
+    ((c * x + s * y, -s * x + c * y), b.2 - a.2)
+}
+
+/// The estimator's `(α, t)` (t in cells) for a robot motion `(d, dθ)`.
+fn estimator_pose(d: (f64, f64), dtheta: f64, cell: f64) -> (Angle, (Score, Score)) {
+    let alpha = -dtheta;
+    let (s, c) = alpha.sin_cos();
+    let t = (-(c * d.0 - s * d.1) / cell, -(s * d.0 + c * d.1) / cell);
+    (
+        Angle::from_degrees(alpha.to_degrees() as f32),
+        (Score::from_num(t.0), Score::from_num(t.1)),
+    )
+}
+
+/// End points (metres, robot frame) of a ray-cast scan, `None` for beams
+/// without a return.
+fn ends(laser: &Laser, ranges: &[f32]) -> Vec<Option<(f64, f64)>> {
+    ranges
+        .iter()
+        .enumerate()
+        .map(|(i, &r)| {
+            let r = f64::from(r);
+            (r > 0.0 && r < laser.max_range).then(|| {
+                let a = laser.angle_min + i as f64 * laser.angle_increment;
+                (r * a.cos(), r * a.sin())
+            })
+        })
+        .collect()
+}
+
+/// The `f64` shares of one direction: `from`'s end points moved by the
+/// motion `(d, dθ)` into `into`'s frame (explained, seen through).
+fn one_way(laser: &Laser, into: &[f32], from: &[f32], d: (f64, f64), dtheta: f64) -> (f64, f64) {
+    let walls = ends(laser, into);
+    let (s, c) = dtheta.sin_cos();
+    let (tau, margin) = (f64::from(BEAM_MATCH_M), f64::from(BEAM_SEEN_THROUGH_M));
+    let max_len = f64::from(BEAM_SEGMENT_MAX_M);
+    let end = |k: i64| {
+        usize::try_from(k)
+            .ok()
+            .and_then(|k| walls.get(k).copied().flatten())
+    };
+    let (mut explained, mut seen, mut count) = (0.0, 0.0, 0.0);
+    for q in ends(laser, from).into_iter().flatten() {
+        count += 1.0;
+        let p = (c * q.0 - s * q.1 + d.0, s * q.0 + c * q.1 + d.1);
+        let bearing = p.1.atan2(p.0);
+        let beam = ((bearing - laser.angle_min) / laser.angle_increment).floor() as i64;
+        // The segment around the bearing whose midpoint is nearest.
+        let mut best: Option<(f64, f64)> = None;
+        for k in beam - 1..=beam + 1 {
+            let (Some(a), Some(b)) = (end(k), end(k + 1)) else {
+                continue;
+            };
+            let e = (b.0 - a.0, b.1 - a.1);
+            let len = e.0.hypot(e.1);
+            if len == 0.0 || len > max_len {
+                continue;
+            }
+            let mid = (p.0 - (a.0 + b.0) / 2.0).hypot(p.1 - (a.1 + b.1) / 2.0);
+            let r = (e.0 * (p.1 - a.1) - e.1 * (p.0 - a.0)) / len;
+            if best.is_none_or(|(m, _)| mid < m) {
+                best = Some((mid, r));
+            }
+        }
+        if let Some((_, r)) = best {
+            explained += (1.0 - (r / tau).powi(2)).max(0.0);
+        }
+        let around: Option<Vec<f64>> = (beam - 1..=beam + 2)
+            .map(|k| end(k).map(|e| e.0.hypot(e.1)))
+            .collect();
+        if let Some(nearest) = around.and_then(|r| r.into_iter().reduce(f64::min)) {
+            seen += f64::from(u8::from(p.0.hypot(p.1) < nearest - nearest / 32.0 - margin));
+        }
+    }
+    (explained / count, seen / count)
+}
+
+/// Both directions, averaged: `(explained, seen through)`.
+fn reference_shares(laser: &Laser, a: &[f32], b: &[f32], d: (f64, f64), dtheta: f64) -> (f64, f64) {
+    let forward = one_way(laser, a, b, d, dtheta);
+    // The inverse motion: a point of `a` in `b`'s frame.
+    let (s, c) = (-dtheta).sin_cos();
+    let back = (-(c * d.0 - s * d.1), -(s * d.0 + c * d.1));
+    let backward = one_way(laser, b, a, back, -dtheta);
+    (
+        (forward.0 + backward.0) / 2.0,
+        (forward.1 + backward.1) / 2.0,
+    )
+}
+
+const FROM: (f64, f64, f64) = (3.0, 2.5, 0.4);
+/// Turns of 12°, 42° and −11° with views that overlap well, moves that are
+/// no whole number of cells.
+const TO: [(f64, f64, f64); 3] = [(3.37, 2.21, 0.613), (3.62, 2.93, 1.13), (2.8, 2.2, 0.21)];
+/// A 93° turn: the 180° views share a third of their walls.
+const FAR_TURN: (f64, f64, f64) = (2.51, 5.47, 2.02);
+
+#[test]
+fn the_shares_agree_with_an_f64_reference_and_single_out_the_true_pose() {
+    let (laser, raster) = (laser(), raster());
+    let cell = f64::from(raster.cell());
+    let first = laser.scan(&room(), FROM);
+    for to in TO.into_iter().chain([FAR_TURN]) {
+        let second = laser.scan(&room(), to);
+        let (d, dtheta) = relative(FROM, to);
+        let mut scores = Vec::new();
+        // The truth, and the same translation a quarter turn off.
+        for turn in [0.0, std::f64::consts::FRAC_PI_2] {
+            let (alpha, t) = estimator_pose(d, dtheta + turn, cell);
+            let got = raster
+                .agreement_on_beams(&scan(&laser, &first), &scan(&laser, &second), alpha, t)
+                .unwrap();
+            let want = reference_shares(&laser, &first, &second, d, dtheta + turn);
+            let (e, s) = (
+                got.explained.to_num::<f64>(),
+                got.seen_through.to_num::<f64>(),
+            );
+            assert!(
+                (e - want.0).abs() < 0.02 && (s - want.1).abs() < 0.01,
+                "{to:?} {turn}: library ({e}, {s}), f64 {want:?}"
+            );
+            let score = e - f64::from(BEAM_SEEN_THROUGH_WEIGHT) * s;
+            assert!((got.score().to_num::<f64>() - score).abs() < 1e-3);
+            scores.push((score, s));
+        }
+        // The truth sees through nothing and leads the quarter turn, which
+        // puts walls where the other sensor saw free space.
+        let [(truth, seen), (quarter, quarter_seen)] = scores[..] else {
+            unreachable!()
+        };
+        assert!(seen < 0.01 && quarter_seen > 0.04, "{to:?}: {scores:?}");
+        assert!(truth > quarter + 0.3, "{to:?}: {scores:?}");
+    }
+}
+
+#[test]
+fn an_estimate_whose_rival_is_the_truth_is_flagged() {
+    let (laser, raster) = (laser(), raster());
+    let first = laser.scan(&room(), FROM);
+    let (mut grid1, mut free1) = (G128::new(), G128::new());
+    raster.rasterize(&scan(&laser, &first), &mut grid1);
+    raster.free_space(&scan(&laser, &first), &mut free1);
+    let mut e = E128::new(Mode::Improved);
+    let reference = e.reference(&grid1);
+    for to in TO {
+        let second = laser.scan(&room(), to);
+        let (mut grid2, mut free2) = (G128::new(), G128::new());
+        raster.rasterize(&scan(&laser, &second), &mut grid2);
+        raster.free_space(&scan(&laser, &second), &mut free2);
+        let views = FreeSpace {
+            reference: &free1,
+            current: &free2,
+        };
+        let (s1, s2) = (scan(&laser, &first), scan(&laser, &second));
+        let estimate = e.estimate_scans(&reference, &grid2, &views, None);
+        assert_eq!(estimate.status, Status::Confident, "{to:?}");
+        // The right answer: the beams agree, nothing changes.
+        let check = raster.check_on_beams(&s1, &s2, &estimate).unwrap();
+        assert!(!check.contradicts(), "{to:?}: {check:?}");
+        let mut kept = estimate.clone();
+        check.apply(&mut kept);
+        assert_eq!(kept, estimate);
+        // The same estimate with a wrong rotation chosen (its translation the
+        // truth's, turned with it) and the truth listed as the runner-up.
+        let truth = estimate.candidates[0];
+        let wrong_alpha = truth.alpha + Angle::QUARTER_TURN;
+        let wrong = Candidate {
+            alpha: wrong_alpha,
+            ..truth
+        };
+        let mut confused = estimate.clone();
+        confused.alpha = wrong_alpha;
+        confused.candidates.clear();
+        confused.candidates.push(wrong).unwrap();
+        confused.candidates.push(truth).unwrap();
+        confused.runner_up = Some(truth);
+        let check = raster.check_on_beams(&s1, &s2, &confused).unwrap();
+        assert!(check.contradicts(), "{to:?}: {check:?}");
+        assert_eq!(check.rival.map(|r| r.0), Some(truth.alpha));
+        check.apply(&mut confused);
+        assert_eq!(confused.status, Status::AmbiguousAxis, "{to:?}");
+        assert!(confused.confidence < Score::from_num(0.5));
+        assert_eq!(
+            confused.alpha, wrong_alpha,
+            "the check flags, it does not pick"
+        );
+    }
+}
+
+#[test]
+fn unusable_inputs_give_no_judgement() {
+    let (laser, raster) = (laser(), raster());
+    let first = laser.scan(&room(), FROM);
+    let good = scan(&laser, &first);
+    let t = (Score::ZERO, Score::ZERO);
+    // No valid end point.
+    let empty = vec![f32::NAN; first.len()];
+    assert!(raster
+        .agreement_on_beams(&good, &scan(&laser, &empty), Angle::ZERO, t)
+        .is_none());
+    // A geometry that is not finite.
+    let broken = Scan {
+        angle_increment: f32::INFINITY,
+        ..good
+    };
+    assert!(raster
+        .agreement_on_beams(&broken, &good, Angle::ZERO, t)
+        .is_none());
+    // A translation beyond the beams' reach.
+    assert!(raster
+        .agreement_on_beams(&good, &good, Angle::ZERO, (Score::MAX, Score::ZERO))
+        .is_none());
+    // The same scan at rest explains itself and sees through nothing.
+    let same = raster
+        .agreement_on_beams(&good, &good, Angle::ZERO, t)
+        .unwrap();
+    assert!(same.explained > Score::from_num(0.95), "{same:?}");
+    assert_eq!(same.seen_through, Score::ZERO);
+}
