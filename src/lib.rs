@@ -140,7 +140,7 @@ pub use pose::scale::ScaleRange;
 pub use pose::Pose;
 pub use reference::{Reference, ScanReference};
 pub use scan::{
-    BeamAgreement, BeamCheck, BeamFit, BeamFitError, FreeSpace, Raster, Scan, ScanStats,
+    BeamAgreement, BeamCheck, BeamFit, BeamFitError, BeamPose, FreeSpace, Raster, Scan, ScanStats,
     SensorOffset,
 };
 
@@ -167,8 +167,8 @@ pub mod stages {
         range_percentile, BeamEnd, ScanBeams, AUTO_MAX_RADIUS_M, AUTO_MIN_RADIUS_M,
         AUTO_PERCENTILE, BEAM_FAR_CELLS, BEAM_FIT_MAX_ITERATIONS, BEAM_FIT_MAX_ROTATION_DEG,
         BEAM_FIT_MAX_SHIFT_CELLS, BEAM_FIT_MIN_PAIRS, BEAM_MATCH_M, BEAM_NEAR_CELLS,
-        BEAM_SEEN_THROUGH_M, BEAM_SEEN_THROUGH_WEIGHT, BEAM_SEGMENT_MAX_M, BEAM_TRIM_MAX_M,
-        BEAM_TRIM_MIN_M, FREE_MARGIN_CELLS, FREE_MARGIN_SHIFT,
+        BEAM_SEEN_THROUGH_M, BEAM_SEEN_THROUGH_WEIGHT, BEAM_SEGMENT_MAX_M, BEAM_SWITCH_LEAD,
+        BEAM_TRIM_MAX_M, BEAM_TRIM_MIN_M, FREE_MARGIN_CELLS, FREE_MARGIN_SHIFT,
     };
     pub use crate::signature::{ColumnStats, PeakKind, Signature, ASYMMETRY_FRACTION_BITS};
     pub use crate::trig::{TrigTable, TRIG_FRACTION_BITS};

@@ -60,7 +60,8 @@ mod sine;
 pub use beam::{BeamEnd, ScanBeams, BEAM_FAR_CELLS, BEAM_NEAR_CELLS};
 pub use free::{FreeSpace, FREE_MARGIN_CELLS, FREE_MARGIN_SHIFT};
 pub use judge::{
-    BeamAgreement, BeamCheck, BEAM_MATCH_M, BEAM_SEEN_THROUGH_M, BEAM_SEEN_THROUGH_WEIGHT,
+    BeamAgreement, BeamCheck, BeamPose, BEAM_MATCH_M, BEAM_SEEN_THROUGH_M,
+    BEAM_SEEN_THROUGH_WEIGHT, BEAM_SWITCH_LEAD,
 };
 pub use refine::{
     BeamFit, BeamFitError, BEAM_FIT_MAX_ITERATIONS, BEAM_FIT_MAX_ROTATION_DEG,

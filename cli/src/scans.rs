@@ -200,17 +200,22 @@ pub fn estimate_with_prior(
         .iter()
         .map(|&mode| {
             let mut estimate = engine.estimate_with_prior(mode, prior);
-            let beam_fit = estimate
-                .translation
-                .filter(|_| options.beam_refine)
-                .map(|t| raster.refine_on_beams(&s1, &s2, estimate.alpha, &t));
+            // The check first: it may replace the answer, which is then
+            // the one refined. With a prior it only flags (the prior chose).
             let beam_check = options
                 .beam_check
                 .then(|| raster.check_on_beams(&s1, &s2, &estimate))
                 .flatten();
             if let Some(check) = &beam_check {
-                check.apply(&mut estimate);
+                match prior {
+                    Some(_) => check.flag(&mut estimate),
+                    None => check.apply(&mut estimate),
+                }
             }
+            let beam_fit = estimate
+                .translation
+                .filter(|_| options.beam_refine)
+                .map(|t| raster.refine_on_beams(&s1, &s2, estimate.alpha, &t));
             let (alpha, translation) = reported_pose(&estimate, beam_fit.as_ref());
             let motion = raster.motion(alpha, translation.as_ref());
             PairEstimate {
@@ -396,15 +401,19 @@ impl BeamFitLine {
 /// What the beams said of the chosen pose and its best rival.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct BeamCheckLine {
-    /// The chosen pose's explained share (`BeamAgreement::explained`).
+    /// The grid's answer's explained share (`BeamAgreement::explained`).
     pub explained: f64,
     /// Its seen-through share (`BeamAgreement::seen_through`).
     pub seen_through: f64,
     /// The best scored other rotation, when there was one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rival: Option<BeamRival>,
-    /// The rival scores higher than the chosen pose.
+    /// The rival scores higher than the grid's answer (a confident answer
+    /// is then flagged).
     pub contradicts: bool,
+    /// The rival leads by `BEAM_SWITCH_LEAD` or more: it is the answer
+    /// (unless a prior was given).
+    pub switches: bool,
 }
 
 /// The best other rotation on the beams.
@@ -422,14 +431,15 @@ impl BeamCheckLine {
     fn of(check: &BeamCheck) -> Self {
         let share = |v: Score| round(v.to_num::<f64>(), 4);
         Self {
-            explained: share(check.chosen.explained),
-            seen_through: share(check.chosen.seen_through),
-            rival: check.rival.map(|(alpha, r)| BeamRival {
-                dtheta_deg: round(wrap_deg(-f64::from(alpha.to_degrees())), 4),
-                explained: share(r.explained),
-                seen_through: share(r.seen_through),
+            explained: share(check.chosen.agreement.explained),
+            seen_through: share(check.chosen.agreement.seen_through),
+            rival: check.rival.map(|r| BeamRival {
+                dtheta_deg: round(wrap_deg(-f64::from(r.alpha.to_degrees())), 4),
+                explained: share(r.agreement.explained),
+                seen_through: share(r.agreement.seen_through),
             }),
             contradicts: check.contradicts(),
+            switches: check.switches(),
         }
     }
 }

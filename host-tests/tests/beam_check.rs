@@ -201,6 +201,7 @@ fn an_estimate_whose_rival_is_the_truth_is_flagged() {
         // The right answer: the beams agree, nothing changes.
         let check = raster.check_on_beams(&s1, &s2, &estimate).unwrap();
         assert!(!check.contradicts(), "{to:?}: {check:?}");
+        assert!(!check.switches());
         let mut kept = estimate.clone();
         check.apply(&mut kept);
         assert_eq!(kept, estimate);
@@ -220,14 +221,28 @@ fn an_estimate_whose_rival_is_the_truth_is_flagged() {
         confused.runner_up = Some(truth);
         let check = raster.check_on_beams(&s1, &s2, &confused).unwrap();
         assert!(check.contradicts(), "{to:?}: {check:?}");
-        assert_eq!(check.rival.map(|r| r.0), Some(truth.alpha));
+        assert_eq!(check.rival.map(|r| r.listed), Some(truth.alpha));
+        let mut flagged = confused.clone();
+        check.flag(&mut flagged);
+        assert_eq!(flagged.status, Status::AmbiguousAxis, "{to:?}");
+        assert!(flagged.confidence < Score::from_num(0.5));
+        assert_eq!(flagged.alpha, wrong_alpha, "flag() does not pick");
+        // The truth leads by far: apply() makes it the answer, still
+        // flagged, at the truth's pose.
+        assert!(check.switches(), "{to:?}: {check:?}");
         check.apply(&mut confused);
-        assert_eq!(confused.status, Status::AmbiguousAxis, "{to:?}");
-        assert!(confused.confidence < Score::from_num(0.5));
-        assert_eq!(
-            confused.alpha, wrong_alpha,
-            "the check flags, it does not pick"
+        assert_eq!(confused.status, Status::AmbiguousAxis);
+        let (d, dtheta) = relative(FROM, to);
+        let (alpha, t) = estimator_pose(d, dtheta, f64::from(raster.cell()));
+        assert!(
+            confused.alpha.distance(alpha) < Angle::from_degrees(0.1),
+            "{to:?}"
         );
+        let got = confused.translation.unwrap();
+        let off = (got.x - t.0)
+            .to_num::<f64>()
+            .hypot((got.y - t.1).to_num::<f64>());
+        assert!(off < 0.2, "{to:?}: {off} cells off");
     }
 }
 

@@ -30,7 +30,7 @@
 //! Integer per beam, as in the refinement: Q16 cells, a 32-bit arctangent,
 //! `i64` sums, one integer root per reference beam read.
 
-use super::beam::ScanBeams;
+use super::beam::{BeamEnd, ScanBeams};
 use super::refine::{atan2_turns, for_each_end, FitPose, Segments};
 use super::sine::sin_cos;
 use super::{Raster, Scan};
@@ -38,6 +38,7 @@ use crate::angle::Angle;
 use crate::pose::Pose;
 use crate::{Estimate, Score, Status};
 use fixed::types::I16F16;
+use heapless::Vec;
 
 /// Distance from a segment's line beyond which an end point explains
 /// nothing, metres (τ).
@@ -48,6 +49,9 @@ pub const BEAM_MATCH_M: f32 = 0.1;
 pub const BEAM_SEEN_THROUGH_M: f32 = 0.1;
 /// Weight of the seen-through share against the explained share.
 pub const BEAM_SEEN_THROUGH_WEIGHT: i32 = 2;
+/// Lead in score by which the beams' rival replaces the grid's answer
+/// ([`BeamCheck::switches`]; chosen on the shared real pairs).
+pub const BEAM_SWITCH_LEAD: f32 = 0.05;
 
 /// How well a pose lays two scans onto each other, both ways
 /// ([`Raster::agreement_on_beams`]).
@@ -69,44 +73,97 @@ impl BeamAgreement {
     }
 }
 
-/// The chosen pose and its strongest rival judged on the beams
+/// A pose as the check on the beams scored it: the estimator's convention
+/// (`p₂ = R(α)·p₁ + t`, `t` in cells).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BeamPose {
+    /// The listed rotation it started from (a candidate's or the runner-up's).
+    pub listed: Angle,
+    /// The rotation scored (refined on the beams when that succeeded).
+    pub alpha: Angle,
+    /// The translation scored, cells: the best of the grid's and the voted
+    /// starts, refined.
+    pub translation: (I16F16, I16F16),
+    /// Its scores.
+    pub agreement: BeamAgreement,
+}
+
+/// The chosen rotation and its strongest rival judged on the beams
 /// ([`Raster::check_on_beams`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct BeamCheck {
-    /// The estimate's chosen pose.
-    pub chosen: BeamAgreement,
+    /// The estimate's chosen rotation at its best scored pose.
+    pub chosen: BeamPose,
     /// The best scored of the other listed rotations (the candidates and
-    /// the runner-up), at its pose refined on the beams when that
-    /// succeeded; `None` when there is none with a translation.
-    pub rival: Option<(Angle, BeamAgreement)>,
+    /// the runner-up at least 5° away); `None` when there is none with a
+    /// translation.
+    pub rival: Option<BeamPose>,
 }
 
 impl BeamCheck {
-    /// The beams prefer another rotation than the estimate's.
-    pub fn contradicts(&self) -> bool {
+    /// The rival's score minus the chosen pose's; `None` without a rival.
+    pub fn lead(&self) -> Option<Score> {
         self.rival
-            .is_some_and(|(_, r)| r.score() > self.chosen.score())
+            .map(|r| r.agreement.score() - self.chosen.agreement.score())
+    }
+
+    /// The beams prefer another rotation than the estimate's (a positive
+    /// [`lead`](Self::lead)).
+    pub fn contradicts(&self) -> bool {
+        self.lead().is_some_and(|l| l > Score::ZERO)
+    }
+
+    /// The beams prefer the rival by at least [`BEAM_SWITCH_LEAD`]: the
+    /// answer should be the rival's.
+    pub fn switches(&self) -> bool {
+        self.lead()
+            .is_some_and(|l| l >= Score::from_num(BEAM_SWITCH_LEAD))
     }
 
     /// Flags `estimate` when the beams contradict it: a confident answer
     /// becomes [`Status::AmbiguousDirection`] (the rival within 45° of its
     /// half turn) or [`Status::AmbiguousAxis`], with its confidence below
     /// ½. Other statuses and everything else are kept.
-    pub fn apply(&self, estimate: &mut Estimate) {
-        let Some((rival, _)) = self.rival.filter(|_| self.contradicts()) else {
+    pub fn flag(&self, estimate: &mut Estimate) {
+        let Some(rival) = self.rival.filter(|_| self.contradicts()) else {
             return;
         };
         if estimate.status != Status::Confident {
             return;
         }
         let eighth = Angle(1 << 29);
-        estimate.status = if rival.distance(estimate.alpha + Angle::HALF_TURN) < eighth {
+        estimate.status = if rival.listed.distance(estimate.alpha + Angle::HALF_TURN) < eighth {
             Status::AmbiguousDirection
         } else {
             Status::AmbiguousAxis
         };
         estimate.confidence = estimate.confidence.min(Score::from_bits((1 << 15) - 1));
+    }
+
+    /// [`flag`](Self::flag), and when the beams [`switch`](Self::switches)
+    /// the answer becomes the rival: `alpha` and `translation` are its
+    /// scored pose (scale 1, no unobservable direction). The status stays
+    /// flagged: the grid and the beams disagree. Estimates with
+    /// [`Status::NoStructure`] are left alone.
+    pub fn apply(&self, estimate: &mut Estimate) {
+        self.flag(estimate);
+        let Some(rival) = self.rival.filter(|_| self.switches()) else {
+            return;
+        };
+        if estimate.status == Status::NoStructure {
+            return;
+        }
+        estimate.alpha = rival.alpha;
+        estimate.translation = Some(Pose {
+            x: rival.translation.0,
+            y: rival.translation.1,
+            scale: I16F16::ONE,
+            residual: I16F16::ZERO,
+            columns: 0,
+            unobservable: None,
+        });
     }
 }
 
@@ -191,8 +248,8 @@ impl Raster {
     ) -> Option<BeamCheck> {
         // Other rotations: 5° apart, the estimator's separation of candidates.
         let separation = Angle(((5u64 << 32) / 360) as u32);
-        let mut chosen: Option<BeamAgreement> = None;
-        let mut rival: Option<(Angle, BeamAgreement)> = None;
+        let mut chosen: Option<BeamPose> = None;
+        let mut rival: Option<BeamPose> = None;
         let listed = estimate
             .candidates
             .iter()
@@ -213,17 +270,33 @@ impl Raster {
                 columns: 0,
                 unobservable: None,
             };
-            let (a, p) = match self.refine_on_beams(reference, current, candidate.alpha, &grid) {
-                Ok(f) => (f.alpha, (f.translation.x, f.translation.y)),
-                Err(_) => (candidate.alpha, (x, y)),
-            };
-            let Some(agreement) = self.agreement_on_beams(reference, current, a, p) else {
+            let voted = voted_translations(self, reference, current, candidate.alpha);
+            let starts = core::iter::once((x, y)).chain(voted);
+            let Some(scored) = starts
+                .filter_map(|(x, y)| {
+                    let start = Pose { x, y, ..grid };
+                    let (alpha, translation) =
+                        match self.refine_on_beams(reference, current, candidate.alpha, &start) {
+                            Ok(f) => (f.alpha, (f.translation.x, f.translation.y)),
+                            Err(_) => (candidate.alpha, (x, y)),
+                        };
+                    let agreement =
+                        self.agreement_on_beams(reference, current, alpha, translation)?;
+                    Some(BeamPose {
+                        listed: candidate.alpha,
+                        alpha,
+                        translation,
+                        agreement,
+                    })
+                })
+                .max_by_key(|p| p.agreement.score())
+            else {
                 continue;
             };
             if is_chosen {
-                chosen = Some(agreement);
-            } else if rival.is_none_or(|(_, r)| agreement.score() > r.score()) {
-                rival = Some((candidate.alpha, agreement));
+                chosen = Some(scored);
+            } else if rival.is_none_or(|r| scored.agreement.score() > r.agreement.score()) {
+                rival = Some(scored);
             }
         }
         Some(BeamCheck {
@@ -231,6 +304,90 @@ impl Raster {
             rival,
         })
     }
+}
+
+/// Bins of the translation vote per axis (odd: one is centred on 0).
+const VOTE_BINS: usize = 41;
+/// Width of a vote bin, metres: the votes cover ±4 m.
+const VOTE_BIN_M: f32 = 0.2;
+/// End points of each scan that vote (every k-th beam).
+const VOTE_POINTS: usize = 96;
+/// Translations taken from the vote.
+const VOTE_PEAKS: usize = 2;
+
+/// The translations (estimator convention, cells) that lay the most end
+/// points of `current`, turned by `alpha`, onto end points of `reference`:
+/// every pair of (subsampled) end points votes for the translation that
+/// would join them, in bins of [`VOTE_BIN_M`] over ±4 m, and the
+/// [`VOTE_PEAKS`] strongest bins (each clearing its 3 × 3 neighbourhood)
+/// are returned, strongest first. Starts for the refinement that do not
+/// depend on the grid search's small sample.
+fn voted_translations(
+    raster: &Raster,
+    reference: &Scan<'_>,
+    current: &Scan<'_>,
+    alpha: Angle,
+) -> Vec<(I16F16, I16F16), VOTE_PEAKS> {
+    let mut peaks = Vec::new();
+    let bin = ((f64::from(VOTE_BIN_M) * raster.inv_cell * 65_536.0).min(1e12) as i64).max(1);
+    let (s, c) = sin_cos(alpha.0.wrapping_neg());
+    let (c, s) = (i64::from(c), i64::from(s));
+    let mut turned: Vec<(i64, i64), VOTE_POINTS> = Vec::new();
+    let cur = ScanBeams::new(current, raster);
+    let stride = current.ranges.len().div_ceil(VOTE_POINTS).max(1);
+    for (i, &range) in current.ranges.iter().enumerate().step_by(stride) {
+        if let BeamEnd::Near { x, y } = cur.end(i, range) {
+            let (x, y) = (i64::from(x), i64::from(y));
+            let _ = turned.push(((c * x - s * y) >> 16, (s * x + c * y) >> 16));
+        }
+    }
+    let half = (VOTE_BINS / 2) as i64;
+    let mut votes = [[0u8; VOTE_BINS]; VOTE_BINS];
+    let refs = ScanBeams::new(reference, raster);
+    let stride = reference.ranges.len().div_ceil(VOTE_POINTS).max(1);
+    for (i, &range) in reference.ranges.iter().enumerate().step_by(stride) {
+        let BeamEnd::Near { x, y } = refs.end(i, range) else {
+            continue;
+        };
+        for &(qx, qy) in &turned {
+            let d = |p: i32, q: i64| (i64::from(p) - q + bin / 2).div_euclid(bin) + half;
+            let (bx, by) = (d(x, qx), d(y, qy));
+            let cell = usize::try_from(by)
+                .ok()
+                .and_then(|by| votes.get_mut(by))
+                .zip(usize::try_from(bx).ok())
+                .and_then(|(row, bx)| row.get_mut(bx));
+            if let Some(v) = cell {
+                *v = v.saturating_add(1);
+            }
+        }
+    }
+    while !peaks.is_full() {
+        let mut best = (0u8, 0usize, 0usize);
+        for (by, row) in votes.iter().enumerate() {
+            for (bx, &v) in row.iter().enumerate() {
+                if v > best.0 {
+                    best = (v, bx, by);
+                }
+            }
+        }
+        let (v, bx, by) = best;
+        if v == 0 {
+            break;
+        }
+        for row in votes.iter_mut().skip(by.saturating_sub(1)).take(3) {
+            for v in row.iter_mut().skip(bx.saturating_sub(1)).take(3) {
+                *v = 0;
+            }
+        }
+        // d = the bin's centre; t = −R(α)·d.
+        let (dx, dy) = ((bx as i64 - half) * bin, (by as i64 - half) * bin);
+        let t = (-((c * dx + s * dy) >> 16), -((c * dy - s * dx) >> 16));
+        let clamp =
+            |v: i64| I16F16::from_bits(v.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32);
+        let _ = peaks.push((clamp(t.0), clamp(t.1)));
+    }
+    peaks
 }
 
 /// One direction of [`Raster::agreement_on_beams`]: `from`'s end points
