@@ -272,26 +272,36 @@ impl Raster {
             };
             let voted = voted_translations(self, reference, current, candidate.alpha);
             let starts = core::iter::once((x, y)).chain(voted);
-            let Some(scored) = starts
-                .filter_map(|(x, y)| {
-                    let start = Pose { x, y, ..grid };
-                    let (alpha, translation) =
-                        match self.refine_on_beams(reference, current, candidate.alpha, &start) {
-                            Ok(f) => (f.alpha, (f.translation.x, f.translation.y)),
-                            Err(_) => (candidate.alpha, (x, y)),
-                        };
-                    let agreement =
-                        self.agreement_on_beams(reference, current, alpha, translation)?;
-                    Some(BeamPose {
-                        listed: candidate.alpha,
-                        alpha,
-                        translation,
-                        agreement,
-                    })
+            // Each start scored as it is; the best one refined and scored
+            // again (the better of the two is kept).
+            let score = |alpha: Angle, translation: (I16F16, I16F16)| {
+                let agreement = self.agreement_on_beams(reference, current, alpha, translation)?;
+                Some(BeamPose {
+                    listed: candidate.alpha,
+                    alpha,
+                    translation,
+                    agreement,
                 })
+            };
+            let Some(best_start) = starts
+                .filter_map(|t| score(candidate.alpha, t))
                 .max_by_key(|p| p.agreement.score())
             else {
                 continue;
+            };
+            let (bx, by) = best_start.translation;
+            let start = Pose {
+                x: bx,
+                y: by,
+                ..grid
+            };
+            let refined = self
+                .refine_on_beams(reference, current, candidate.alpha, &start)
+                .ok()
+                .and_then(|f| score(f.alpha, (f.translation.x, f.translation.y)));
+            let scored = match refined {
+                Some(r) if r.agreement.score() >= best_start.agreement.score() => r,
+                _ => best_start,
             };
             if is_chosen {
                 chosen = Some(scored);
@@ -313,7 +323,7 @@ const VOTE_BIN_M: f32 = 0.2;
 /// End points of each scan that vote (every k-th beam).
 const VOTE_POINTS: usize = 96;
 /// Translations taken from the vote.
-const VOTE_PEAKS: usize = 2;
+const VOTE_PEAKS: usize = 3;
 
 /// The translations (estimator convention, cells) that lay the most end
 /// points of `current`, turned by `alpha`, onto end points of `reference`:
