@@ -966,6 +966,20 @@ fn fuzz_scans() {
                     prop_assert_eq!(fit.translation.unobservable, t.unobservable);
                 }
             }
+            // The check on the beams: shares in [0, 1]; flagging never
+            // leaves a contradicted answer confident.
+            if let Some(check) = raster.check_on_beams(&sa, &sb, &scans) {
+                for pose in core::iter::once(check.chosen).chain(check.rival) {
+                    let a = pose.agreement;
+                    prop_assert!(
+                        (0..=1).contains(&a.explained) && (0..=1).contains(&a.seen_through)
+                    );
+                }
+                let mut checked = scans.clone();
+                check.apply(&mut checked);
+                prop_assert!(!(check.contradicts() && checked.status == Status::Confident));
+                prop_assert!(checked.confidence <= scans.confidence);
+            }
             prop_assert!(
                 scans
                     .candidates

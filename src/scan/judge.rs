@@ -271,7 +271,7 @@ impl Raster {
                 unobservable: None,
             };
             let voted = voted_translations(self, reference, current, candidate.alpha);
-            let starts = core::iter::once((x, y)).chain(voted);
+            let starts = core::iter::once((x, y)).chain(voted.iter().copied());
             // Each start scored as it is; the best one refined and scored
             // again (the better of the two is kept).
             let score = |alpha: Angle, translation: (I16F16, I16F16)| {

@@ -46,7 +46,7 @@ use hough_heading::{
     stages::vote_column_split, stages::Accumulator, stages::Column, stages::ColumnShift,
     stages::ColumnStats, stages::Correlation, stages::Peak, stages::PeakKind, stages::ScanBeams,
     stages::Shift, stages::Signature, stages::REFERENCE_FORMAT, stages::RUNNERS_UP, Angle, Error,
-    Estimator, FreeSpace, Grid, Mode, Pose, Prior, Raster, Reference, ScaleRange, Scan,
+    Estimate, Estimator, FreeSpace, Grid, Mode, Pose, Prior, Raster, Reference, ScaleRange, Scan,
     ScanReference, ScanStats, Score, SensorOffset, Thresholds,
 };
 use hough_lidar::ydlidar::YdlidarLayout;
@@ -123,7 +123,7 @@ fn entry_estimator<
 >(
     g1: &Grid<W, H, RW>,
     g2: &Grid<W, H, RW>,
-) {
+) -> Estimate {
     let mut e = Estimator::<W, H, RW, N, HALF, RHO, PW>::new(opaque_mode());
     if opaque(false) {
         e = e.with_thresholds(opaque_thresholds());
@@ -172,7 +172,7 @@ fn entry_estimator<
         current: g1,
     };
     let on_scans = verified.estimate_scans(&reference, g2, &free, opaque(Some(prior)));
-    opaque(on_scans.runner_up);
+    opaque(&on_scans.runner_up);
     opaque(e.estimate_scans(&reference, g2, &free, opaque(None)));
     let mut plain = verified.with_verification(false);
     opaque(plain.verification());
@@ -180,6 +180,7 @@ fn entry_estimator<
     opaque(e.current_signature());
     opaque(e.mode());
     opaque(Mode::peak_kind(opaque_mode()));
+    on_scans
 }
 
 /// A stored reference: bytes in, bytes out, and an estimate against a
@@ -365,7 +366,10 @@ fn entry_config() {
 
 /// Laser scans to grids and the estimate back to a motion.
 #[inline(never)]
-fn entry_scan<const W: usize, const H: usize, const RW: usize>(grid: &mut Grid<W, H, RW>) {
+fn entry_scan<const W: usize, const H: usize, const RW: usize>(
+    grid: &mut Grid<W, H, RW>,
+    mut estimate: Estimate,
+) {
     let ranges = opaque([0.0f32; 16]);
     let scan = Scan {
         ranges: ranges.get(..opaque(0)).unwrap_or(&[]),
@@ -403,7 +407,13 @@ fn entry_scan<const W: usize, const H: usize, const RW: usize>(grid: &mut Grid<W
             columns: opaque(0),
             unobservable: opaque(None),
         };
-        opaque(raster.refine_on_beams(&scan, &scans[opaque(0) & 1], Angle(opaque(0)), &pose));
+        let _ = opaque(raster.refine_on_beams(&scan, &scans[opaque(0) & 1], Angle(opaque(0)), &pose));
+        let other = &scans[opaque(1) & 1];
+        opaque(raster.agreement_on_beams(&scan, other, Angle(opaque(0)), (pose.x, pose.y)));
+        if let Some(check) = raster.check_on_beams(&scan, other, &estimate) {
+            check.apply(&mut estimate);
+            opaque(estimate);
+        }
     }
 }
 
@@ -422,11 +432,11 @@ fn configuration<
 ) {
     let mut g1 = entry_grid::<W, H, RW>();
     let g2 = entry_grid::<W, H, RW>();
-    entry_estimator::<W, H, RW, N, HALF, RHO, PW>(&g1, &g2);
+    let estimate = entry_estimator::<W, H, RW, N, HALF, RHO, PW>(&g1, &g2);
     entry_reference_bytes::<W, H, RW, N, HALF, RHO, PW>(bytes, version_2, &g2);
     entry_votes::<W, H, RW, N, HALF, RHO>(&g1);
     entry_matching::<HALF, RHO>();
-    entry_scan::<W, H, RW>(&mut g1);
+    entry_scan::<W, H, RW>(&mut g1, estimate);
 }
 
 macro_rules! configuration {
