@@ -34,10 +34,11 @@
 //! assert_ne!(estimate.status, Status::NoStructure);
 //! ```
 //!
-//! Laser scans become grids with a [`Raster`] ([`Raster::rasterize`]), an
-//! estimate on two rasterised scans is refined on their beams with
-//! [`Raster::refine_on_beams`], and becomes the robot's [`Motion`] with
-//! [`Raster::motion`].
+//! Laser scans become grids with a [`Raster`] ([`Raster::rasterize`]); an
+//! estimate on two rasterised scans is judged again on their beams with
+//! [`Raster::check_on_beams`] (flagged, or replaced by a rival the beams
+//! clearly prefer), refined on them with [`Raster::refine_on_beams`], and
+//! becomes the robot's [`Motion`] with [`Raster::motion`].
 //!
 //! # Conventions
 //!
@@ -99,7 +100,8 @@
 //!   ([`MAX_CANDIDATES`]), [`HalfTurnTest`] / [`HalfTurn`], [`Pose`]
 //!   (the pose: translation, scale, residual);
 //! * scans: [`Scan`], [`SensorOffset`], [`Raster`], [`ScanStats`],
-//!   [`FreeSpace`] (what the beams saw through), [`BeamFit`] /
+//!   [`FreeSpace`] (what the beams saw through), [`BeamCheck`] /
+//!   [`BeamPose`] / [`BeamAgreement`] (the check on the beams), [`BeamFit`] /
 //!   [`BeamFitError`] (the refinement on the beams), [`Motion`].
 //!
 //! Under [`config`]: the sizes (`row_words`, `half_turn_steps`, `rho_bins`,

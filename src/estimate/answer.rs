@@ -180,7 +180,8 @@ pub struct Estimate {
     /// The α vs α + π test of the winning peak.
     pub half_turn: HalfTurnTest,
     /// Up to [`MAX_CANDIDATES`] rotations, strongest first; `alpha` is one of
-    /// them (the first, unless a prior picked another).
+    /// them (the first, unless a prior picked another) or the runner-up's
+    /// (when [`BeamCheck::apply`](crate::BeamCheck::apply) switched to it).
     pub candidates: Vec<Candidate, MAX_CANDIDATES>,
     /// With verification: the best candidate at least 5° from the winner
     /// (whatever its lead: the decision's other side), so a caller can set
