@@ -245,7 +245,7 @@ impl Raster {
     /// Judges `estimate` on the beams: each listed rotation with a
     /// translation (the candidates and the runner-up, the chosen one
     /// included) is scored at its grid translation and at the
-    /// [`VOTE_PEAKS`] strongest translations of a vote on the end points;
+    /// three strongest translations of a vote on the end points;
     /// the best of these starts is refined on the beams (no direction held:
     /// every rotation gets the same treatment, and the reported translation
     /// drops its unobservable component, which the check must not) and kept
@@ -253,7 +253,7 @@ impl Raster {
     /// `estimate.alpha` has a translation or the beams cannot score it.
     ///
     /// Cost per listed rotation (at most five): one vote (96 × 96 end-point
-    /// pairs), [`VOTE_PEAKS`] + 2 [`agreement_on_beams`](Self::agreement_on_beams)
+    /// pairs), five [`agreement_on_beams`](Self::agreement_on_beams)
     /// and one refinement.
     pub fn check_on_beams(
         &self,
