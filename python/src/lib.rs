@@ -156,7 +156,8 @@ impl ScanGrid {
                 cell,
                 connect: (connect > 0.0).then_some(connect),
                 disc,
-                // The tool's default: the chosen pose refined on the beams.
+                // The tool's defaults: the answer checked and refined on the
+                // beams.
                 beam_refine: true,
                 beam_check: true,
             },
