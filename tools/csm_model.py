@@ -33,6 +33,8 @@ import numpy as np
 from scipy.ndimage import distance_transform_edt
 from scipy.spatial import cKDTree
 
+from beam_checks import inverse, laser_pose
+
 T_MAX, CELL, SIG_COARSE, SIG_FINE, R_CAP = 4.0, 0.1, 0.15, 0.05, 20.0
 
 
@@ -53,22 +55,6 @@ def densify(p, ok, gap=0.3, step=0.025):
                 k = int(d / step)
                 out.append(p[i] + (np.arange(1, k) / k)[:, None] * (p[i + 1] - p[i]))
     return np.concatenate(out)
-
-
-def compose(a, b):
-    x, y, t = a
-    u, v, s = b
-    return (x + math.cos(t) * u - math.sin(t) * v, y + math.sin(t) * u + math.cos(t) * v, t + s)
-
-
-def inverse(a):
-    x, y, t = a
-    c, s = math.cos(t), math.sin(t)
-    return (-(c * x + s * y), -(-s * x + c * y), -t)
-
-
-def laser_pose(s1, s2, robot):
-    return compose(compose(inverse(tuple(s1["laser_offset"])), robot), tuple(s2["laser_offset"]))
 
 
 def moved(p, pose):

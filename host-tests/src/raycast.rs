@@ -1,6 +1,7 @@
 //! Synthetic laser scans: beams cast from a pose against a map of wall
 //! segments, in `f64` (for hand-checked cases on scans, e.g. a corridor
-//! seen from both ends). Independent of the library.
+//! seen from both ends). Independent of the library's algorithms: only
+//! [`Laser::as_scan`] names its input type.
 
 /// A wall from `.0` to `.1`, metres, world frame.
 pub type Wall = ((f64, f64), (f64, f64));
@@ -65,6 +66,26 @@ impl Laser {
             })
             .collect()
     }
+
+    /// `ranges` cast by this laser as the library's [`Scan`](hough_heading::Scan)
+    /// (the sensor at the robot's origin).
+    pub fn as_scan<'a>(&self, ranges: &'a [f32]) -> hough_heading::Scan<'a> {
+        hough_heading::Scan {
+            ranges,
+            angle_min: self.angle_min as f32,
+            angle_increment: self.angle_increment as f32,
+            max_range: self.max_range as f32,
+            offset: hough_heading::SensorOffset::default(),
+        }
+    }
+}
+
+/// The robot at world pose `b` seen from the robot frame at world pose `a`:
+/// `(d, dθ)`, metres and radians (`p_a = R(dθ)·p_b + d`).
+pub fn relative(a: (f64, f64, f64), b: (f64, f64, f64)) -> ((f64, f64), f64) {
+    let (s, c) = a.2.sin_cos();
+    let (x, y) = (b.0 - a.0, b.1 - a.1);
+    ((c * x + s * y, -s * x + c * y), b.2 - a.2)
 }
 
 /// Distance along the ray `p + t·d` (t > 0) to the segment `w`, if it hits.

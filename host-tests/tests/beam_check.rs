@@ -6,12 +6,12 @@
 //! end point and sees through none, a wrong rotation scores far lower, and
 //! an estimate whose listed rival is the truth is flagged.
 
-use host_tests::raycast::{l_room as room, Laser};
+use host_tests::raycast::{l_room as room, relative, Laser};
 use hough_heading::stages::{
     BEAM_MATCH_M, BEAM_SEEN_THROUGH_M, BEAM_SEEN_THROUGH_WEIGHT, BEAM_SEGMENT_MAX_M,
 };
 use hough_heading::{
-    estimator, grid, Angle, Candidate, FreeSpace, Mode, Raster, Scan, Score, SensorOffset, Status,
+    estimator, grid, Angle, Candidate, FreeSpace, Mode, Raster, Scan, Score, Status,
 };
 
 type G128 = grid!(128, 128);
@@ -22,26 +22,9 @@ fn laser() -> Laser {
     Laser::centred(180.0, 361, 30.0)
 }
 
-fn scan<'a>(laser: &Laser, ranges: &'a [f32]) -> Scan<'a> {
-    Scan {
-        ranges,
-        angle_min: laser.angle_min as f32,
-        angle_increment: laser.angle_increment as f32,
-        max_range: laser.max_range as f32,
-        offset: SensorOffset::default(),
-    }
-}
-
 /// 9 m radius on 128 cells (0.14 m cells), segments up to 0.3 m.
 fn raster() -> Raster {
     Raster::with_radius(9.0, 128).unwrap().connect(0.3)
-}
-
-/// The robot at `b` in the robot frame at `a` (world poses): `(d, dθ)`.
-fn relative(a: (f64, f64, f64), b: (f64, f64, f64)) -> ((f64, f64), f64) {
-    let (s, c) = a.2.sin_cos();
-    let (x, y) = (b.0 - a.0, b.1 - a.1);
-    ((c * x + s * y, -s * x + c * y), b.2 - a.2)
 }
 
 /// The estimator's `(α, t)` (t in cells) for a robot motion `(d, dθ)`.
@@ -152,7 +135,7 @@ fn the_shares_agree_with_an_f64_reference_and_single_out_the_true_pose() {
         for turn in [0.0, std::f64::consts::FRAC_PI_2] {
             let (alpha, t) = estimator_pose(d, dtheta + turn, cell);
             let got = raster
-                .agreement_on_beams(&scan(&laser, &first), &scan(&laser, &second), alpha, t)
+                .agreement_on_beams(&laser.as_scan(&first), &laser.as_scan(&second), alpha, t)
                 .unwrap();
             let want = reference_shares(&laser, &first, &second, d, dtheta + turn);
             let (e, s) = (
@@ -182,20 +165,20 @@ fn an_estimate_whose_rival_is_the_truth_is_flagged() {
     let (laser, raster) = (laser(), raster());
     let first = laser.scan(&room(), FROM);
     let (mut grid1, mut free1) = (G128::new(), G128::new());
-    raster.rasterize(&scan(&laser, &first), &mut grid1);
-    raster.free_space(&scan(&laser, &first), &mut free1);
+    raster.rasterize(&laser.as_scan(&first), &mut grid1);
+    raster.free_space(&laser.as_scan(&first), &mut free1);
     let mut e = E128::new(Mode::Improved);
     let reference = e.reference(&grid1);
     for to in TO {
         let second = laser.scan(&room(), to);
         let (mut grid2, mut free2) = (G128::new(), G128::new());
-        raster.rasterize(&scan(&laser, &second), &mut grid2);
-        raster.free_space(&scan(&laser, &second), &mut free2);
+        raster.rasterize(&laser.as_scan(&second), &mut grid2);
+        raster.free_space(&laser.as_scan(&second), &mut free2);
         let views = FreeSpace {
             reference: &free1,
             current: &free2,
         };
-        let (s1, s2) = (scan(&laser, &first), scan(&laser, &second));
+        let (s1, s2) = (laser.as_scan(&first), laser.as_scan(&second));
         let estimate = e.estimate_scans(&reference, &grid2, &views, None);
         assert_eq!(estimate.status, Status::Confident, "{to:?}");
         // The right answer: the beams agree, nothing changes.
@@ -250,12 +233,12 @@ fn an_estimate_whose_rival_is_the_truth_is_flagged() {
 fn unusable_inputs_give_no_judgement() {
     let (laser, raster) = (laser(), raster());
     let first = laser.scan(&room(), FROM);
-    let good = scan(&laser, &first);
+    let good = laser.as_scan(&first);
     let t = (Score::ZERO, Score::ZERO);
     // No valid end point.
     let empty = vec![f32::NAN; first.len()];
     assert!(raster
-        .agreement_on_beams(&good, &scan(&laser, &empty), Angle::ZERO, t)
+        .agreement_on_beams(&good, &laser.as_scan(&empty), Angle::ZERO, t)
         .is_none());
     // A geometry that is not finite.
     let broken = Scan {

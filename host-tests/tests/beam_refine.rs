@@ -5,10 +5,9 @@
 //! truth well below a cell; it refuses a start it would have to move too
 //! far, and inputs it cannot use, with a typed error.
 
-use host_tests::raycast::{l_room as room, Laser, Wall};
+use host_tests::raycast::{l_room as room, relative, Laser, Wall};
 use hough_heading::{
-    estimator, grid, Angle, BeamFitError, FreeSpace, Mode, Pose, Raster, Scan, Score, SensorOffset,
-    Status,
+    estimator, grid, Angle, BeamFitError, FreeSpace, Mode, Pose, Raster, Scan, Score, Status,
 };
 
 type G128 = grid!(128, 128);
@@ -19,26 +18,9 @@ fn laser() -> Laser {
     Laser::centred(270.0, 541, 30.0)
 }
 
-fn scan<'a>(laser: &Laser, ranges: &'a [f32]) -> Scan<'a> {
-    Scan {
-        ranges,
-        angle_min: laser.angle_min as f32,
-        angle_increment: laser.angle_increment as f32,
-        max_range: laser.max_range as f32,
-        offset: SensorOffset::default(),
-    }
-}
-
 /// 9 m radius on 128 cells (0.14 m cells), segments up to 0.3 m.
 fn raster() -> Raster {
     Raster::with_radius(9.0, 128).unwrap().connect(0.3)
-}
-
-/// The robot at `b` in the robot frame at `a` (world poses): `(d, dθ)`.
-fn relative(a: (f64, f64, f64), b: (f64, f64, f64)) -> ((f64, f64), f64) {
-    let (s, c) = a.2.sin_cos();
-    let (x, y) = (b.0 - a.0, b.1 - a.1);
-    ((c * x + s * y, -s * x + c * y), b.2 - a.2)
 }
 
 /// The estimator's `(α, t)` for a robot motion `(d, dθ)`: α = −dθ,
@@ -87,16 +69,16 @@ fn the_grid_estimate_refined_on_the_beams_is_within_a_tenth_of_a_cell() {
     let (laser, raster) = (laser(), raster());
     let first = laser.scan(&room(), FROM);
     let (mut grid1, mut free1) = (G128::new(), G128::new());
-    raster.rasterize(&scan(&laser, &first), &mut grid1);
-    raster.free_space(&scan(&laser, &first), &mut free1);
+    raster.rasterize(&laser.as_scan(&first), &mut grid1);
+    raster.free_space(&laser.as_scan(&first), &mut free1);
     let mut e = E128::new(Mode::Improved);
     let reference = e.reference(&grid1);
     let cell = f64::from(raster.cell());
     for to in TO {
         let second = laser.scan(&room(), to);
         let (mut grid2, mut free2) = (G128::new(), G128::new());
-        raster.rasterize(&scan(&laser, &second), &mut grid2);
-        raster.free_space(&scan(&laser, &second), &mut free2);
+        raster.rasterize(&laser.as_scan(&second), &mut grid2);
+        raster.free_space(&laser.as_scan(&second), &mut free2);
         let views = FreeSpace {
             reference: &free1,
             current: &free2,
@@ -108,8 +90,8 @@ fn the_grid_estimate_refined_on_the_beams_is_within_a_tenth_of_a_cell() {
         let before = errors(&raster, estimate.alpha, &t, d, dtheta);
         let fit = raster
             .refine_on_beams(
-                &scan(&laser, &first),
-                &scan(&laser, &second),
+                &laser.as_scan(&first),
+                &laser.as_scan(&second),
                 estimate.alpha,
                 &t,
             )
@@ -169,7 +151,7 @@ fn off_by_half_a_degree_and_a_cell(laser: &Laser, raster: &Raster, cell: f64) {
             let (alpha, t) =
                 estimator_pose((d.0 + dd.0, d.1 + dd.1), dtheta + dt.to_radians(), cell);
             let fit = raster
-                .refine_on_beams(&scan(laser, &first), &scan(laser, &second), alpha, &t)
+                .refine_on_beams(&laser.as_scan(&first), &laser.as_scan(&second), alpha, &t)
                 .unwrap();
             let after = errors(raster, fit.alpha, &fit.translation, d, dtheta);
             // From the third pose the reference's side walls are seen
@@ -189,7 +171,7 @@ fn off_by_half_a_degree_and_a_cell(laser: &Laser, raster: &Raster, cell: f64) {
         // Two degrees off: the fit would leave the estimate's basin.
         let (alpha, t) = estimator_pose(d, dtheta + 2f64.to_radians(), cell);
         assert_eq!(
-            raster.refine_on_beams(&scan(laser, &first), &scan(laser, &second), alpha, &t),
+            raster.refine_on_beams(&laser.as_scan(&first), &laser.as_scan(&second), alpha, &t),
             Err(BeamFitError::MovedTooFar),
             "{laser:?} {to:?}"
         );
@@ -213,7 +195,7 @@ fn a_corridor_keeps_its_unobservable_direction() {
     let u = (c, s); // R(α)·x̂: the walls' direction in t's frame.
     t.unobservable = Some((Score::from_num(u.0), Score::from_num(u.1)));
     let fit = raster
-        .refine_on_beams(&scan(&laser, &a), &scan(&laser, &b), alpha, &t)
+        .refine_on_beams(&laser.as_scan(&a), &laser.as_scan(&b), alpha, &t)
         .unwrap();
     let (ux, uy) = fit.translation.unobservable.unwrap();
     let component = fit.translation.x.to_num::<f64>() * ux.to_num::<f64>()
@@ -233,20 +215,20 @@ fn unusable_inputs_are_refused_with_a_typed_error() {
     let second = laser.scan(&room(), TO[0]);
     let (d, dtheta) = relative(FROM, TO[0]);
     let (alpha, t) = estimator_pose(d, dtheta, f64::from(raster.cell()));
-    let good = scan(&laser, &first);
+    let good = laser.as_scan(&first);
     let nan = vec![f32::NAN; 541];
     let refine = |a: &Scan<'_>, b: &Scan<'_>, t: &Pose| raster.refine_on_beams(a, b, alpha, t);
-    assert!(refine(&good, &scan(&laser, &second), &t).is_ok());
+    assert!(refine(&good, &laser.as_scan(&second), &t).is_ok());
     assert_eq!(
-        refine(&good, &scan(&laser, &nan), &t),
+        refine(&good, &laser.as_scan(&nan), &t),
         Err(BeamFitError::TooFewPairs)
     );
     assert_eq!(
-        refine(&scan(&laser, &nan), &scan(&laser, &second), &t),
+        refine(&laser.as_scan(&nan), &laser.as_scan(&second), &t),
         Err(BeamFitError::TooFewPairs)
     );
     assert_eq!(
-        refine(&good, &scan(&laser, &[]), &t),
+        refine(&good, &laser.as_scan(&[]), &t),
         Err(BeamFitError::TooFewPairs)
     );
     let broken = Scan {
@@ -254,7 +236,7 @@ fn unusable_inputs_are_refused_with_a_typed_error() {
         ..good
     };
     assert_eq!(
-        refine(&broken, &scan(&laser, &second), &t),
+        refine(&broken, &laser.as_scan(&second), &t),
         Err(BeamFitError::TooFewPairs)
     );
     let scaled = Pose {
@@ -262,12 +244,12 @@ fn unusable_inputs_are_refused_with_a_typed_error() {
         ..t
     };
     assert_eq!(
-        refine(&good, &scan(&laser, &second), &scaled),
+        refine(&good, &laser.as_scan(&second), &scaled),
         Err(BeamFitError::Unsupported)
     );
     let far = Pose { x: Score::MAX, ..t };
     assert_eq!(
-        refine(&good, &scan(&laser, &second), &far),
+        refine(&good, &laser.as_scan(&second), &far),
         Err(BeamFitError::Unsupported)
     );
     // A scan refined against itself at its own pose stays there.
