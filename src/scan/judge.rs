@@ -460,7 +460,8 @@ impl Segments<'_> {
         let Some(beam) = self.beam_before(atan2_turns(dy, dx)) else {
             return false;
         };
-        let mut nearest = i64::MAX;
+        // The nearest of the four ranges, squared first (one root).
+        let mut nearest_sq = u64::MAX;
         for k in beam - 1..=beam + 2 {
             let Some(e) = self.end(k) else {
                 return false;
@@ -469,9 +470,9 @@ impl Segments<'_> {
                 i64::from(e.0) - i64::from(self.origin.0),
                 i64::from(e.1) - i64::from(self.origin.1),
             );
-            let range = ((ex * ex + ey * ey) as u64).isqrt() as i64;
-            nearest = nearest.min(range);
+            nearest_sq = nearest_sq.min((ex * ex + ey * ey) as u64);
         }
+        let nearest = nearest_sq.isqrt() as i64;
         let limit = nearest - nearest / 32 - margin;
         limit > 0 && dx * dx + dy * dy < limit * limit
     }
