@@ -23,8 +23,10 @@
 //! 5. estimates (`Mode::Improved`, default thresholds, verification on,
 //!    `N_θ` = 360) with both scans' free space, as the CLI does
 //!    (`Estimator::estimate_scans`);
-//! 6. reads both scans again and refines the estimate on their beams
-//!    (`Raster::refine_on_beams`), as the CLI does by default.
+//! 6. reads both scans again, checks the estimate on their beams
+//!    (`Raster::check_on_beams`, `BeamCheck::apply`; on the Cortex-M4F only,
+//!    the M0's 16 KiB have no room for its vote) and refines the answer on
+//!    them (`Raster::refine_on_beams`), as the CLI does by default.
 //!
 //! It logs one result line per pair ([`write_result`]: every field of the
 //! rasterization and of the estimate as raw bits), and `hough-heading mcu
@@ -34,9 +36,9 @@
 //! Each step runs between the marker functions [`hh_bench_start`] and
 //! [`hh_bench_stop`]: `budgets report` runs this firmware with the
 //! `qemu-icount` plugin, which counts the instructions of each region (one
-//! empty region first, the markers' overhead, then six per pair: window,
-//! rasterize scan 1, reference, rasterize scan 2, estimate, refinement on
-//! the beams) and the stack's
+//! empty region first, the markers' overhead, then seven per pair: window,
+//! rasterize scan 1, reference, rasterize scan 2, estimate, check on the
+//! beams (empty on the M0), refinement on the beams) and the stack's
 //! low-water mark, for the budget table's real-scan rows.
 //!
 //! ```text
@@ -234,17 +236,19 @@ mod firmware {
         })
     }
 
-    /// Reads both scans of the pair of `window` again and refines the
-    /// estimate on their beams (`Raster::refine_on_beams`), as the CLI does
-    /// by default; leaves the file at the next pair. Always one measured
-    /// region (empty when the estimate has no translation). Not inlined,
+    /// Reads both scans of the pair of `window` again, checks the estimate
+    /// on their beams (`Raster::check_on_beams` and `BeamCheck::apply`,
+    /// not on the 16 KiB micro:bit: its stack has no room for the vote)
+    /// and refines the answer on them (`Raster::refine_on_beams`), as the
+    /// CLI does by default; leaves the file at the next pair. Always two
+    /// measured regions (empty when there is nothing to do). Not inlined,
     /// like [`first_scan`]: the ranges are not on the stack during the
     /// estimate.
     #[inline(never)]
-    fn refine(
+    fn on_beams(
         pairs: &mut Pairs,
         window: &Window,
-        estimate: &Estimate,
+        estimate: &mut Estimate,
     ) -> Result<Option<Result<BeamFit, BeamFitError>>, &'static str> {
         pairs.seek(window.first_at)?;
         let mut ranges = [[0f32; MAX_BEAMS]; 2];
@@ -255,6 +259,12 @@ mod firmware {
             return Err("pair file: the pair changed");
         }
         let scans = [scan(&first, &ranges[0]), scan(&second, &ranges[1])];
+        measure(|| {
+            #[cfg(not(hh_small_ram))]
+            if let Some(check) = window.raster.check_on_beams(&scans[0], &scans[1], estimate) {
+                check.apply(estimate);
+            }
+        });
         Ok(measure(|| {
             estimate.translation.map(|t| {
                 window
@@ -391,7 +401,7 @@ mod firmware {
             let reference = measure(|| estimator.reference(&grid));
             let second = second_scan(&mut pairs, &window, &mut grid, free_second.as_deref_mut())
                 .unwrap_or_else(|m| fail(m));
-            let estimate = match (free_first.as_deref(), free_second.as_deref()) {
+            let mut estimate = match (free_first.as_deref(), free_second.as_deref()) {
                 (Some(reference_free), Some(current_free)) => {
                     let views = FreeSpace {
                         reference: reference_free,
@@ -401,7 +411,7 @@ mod firmware {
                 }
                 _ => measure(|| estimator.estimate(&reference, &grid)),
             };
-            let fit = refine(&mut pairs, &window, &estimate).unwrap_or_else(|m| fail(m));
+            let fit = on_beams(&mut pairs, &window, &mut estimate).unwrap_or_else(|m| fail(m));
             let stats = [window.stats, second];
             report(
                 &window,

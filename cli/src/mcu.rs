@@ -258,8 +258,9 @@ pub fn host_lines(bytes: &[u8], free_space: bool) -> Result<Vec<(u32, String)>, 
         connect: Some(scans::DEFAULT_CONNECT_M),
         disc: false,
         beam_refine: true,
-        // The firmware does not judge on the beams (yet): compare like with like.
-        beam_check: false,
+        // The firmware checks on the beams where it has the free space too
+        // (the Cortex-M4F; the M0's 16 KiB have no room for either).
+        beam_check: free_space,
     };
     let mut out = Vec::new();
     for (index, pair) in decode(bytes)? {

@@ -3,9 +3,10 @@
 //! the `qemu-icount` plugin.
 //!
 //! The firmware measures, after one empty region (the markers' overhead),
-//! six regions per pair in order: the window (`Raster::auto` over both
+//! seven regions per pair in order: the window (`Raster::auto` over both
 //! scans), rasterizing scan 1, preparing the reference, rasterizing scan 2,
-//! the estimate, and its refinement on the beams; its result lines (`pair=… scan1=beams/… scan2=beams/…`)
+//! the estimate, its check on the beams (empty on the Cortex-M0) and the
+//! refinement on the beams; its result lines (`pair=… scan1=beams/… scan2=beams/…`)
 //! give each scan's beam count.
 
 use serde_json::{json, Map, Value};
@@ -18,7 +19,7 @@ use crate::{elf, Error};
 pub const KEY: &str = "real-scans/128x128/360";
 
 /// Regions per pair.
-const REGIONS: usize = 6;
+const REGIONS: usize = 7;
 
 /// Time limit of the run (120 pairs take about 10 s on the Cortex-M0 without
 /// the plugin).
@@ -80,7 +81,7 @@ pub fn measure(
     let overhead = counts[0].0;
     let net = |i: usize| counts[i].0.saturating_sub(overhead);
     let (mut pair, mut estimate, mut reference, mut window) = (vec![], vec![], vec![], vec![]);
-    let mut refine = vec![];
+    let (mut check, mut refine) = (vec![], vec![]);
     let (mut per_beam, mut scans_360, mut scans_180) = (vec![], vec![], vec![]);
     for (p, beams) in beams.iter().enumerate() {
         let at = 1 + REGIONS * p;
@@ -89,7 +90,8 @@ pub fn measure(
         window.push(regions[0]);
         reference.push(regions[2]);
         estimate.push(regions[4]);
-        refine.push(regions[5]);
+        check.push(regions[5]);
+        refine.push(regions[6]);
         for (&n, &b) in [regions[1], regions[3]].iter().zip(beams) {
             per_beam.push(n as f64 / b.max(1) as f64);
             match b {
@@ -115,6 +117,8 @@ pub fn measure(
     values.insert("real_pair_max".into(), json!(pair.iter().max()));
     values.insert("real_estimate_median".into(), json!(median(&mut estimate)));
     values.insert("real_estimate_max".into(), json!(estimate.iter().max()));
+    values.insert("real_check_median".into(), json!(median(&mut check)));
+    values.insert("real_check_max".into(), json!(check.iter().max()));
     values.insert("real_refine_median".into(), json!(median(&mut refine)));
     values.insert("real_refine_max".into(), json!(refine.iter().max()));
     values.insert(
@@ -142,13 +146,15 @@ fn median(values: &mut [u64]) -> u64 {
 }
 
 /// Columns of the real-scan table.
-pub const HEADER: [&str; 13] = [
+pub const HEADER: [&str; 15] = [
     "target",
     "real pairs",
     "instr. / pair, median",
     "instr. / pair, max",
     "estimate, median",
     "estimate, max",
+    "check on the beams, median",
+    "check on the beams, max",
     "refinement on the beams, median",
     "refinement on the beams, max",
     "reference, median",
@@ -177,6 +183,8 @@ pub fn row(target: &Target, v: &Map<String, Value>) -> Vec<String> {
         count("real_pair_max"),
         count("real_estimate_median"),
         count("real_estimate_max"),
+        count("real_check_median"),
+        count("real_check_max"),
         count("real_refine_median"),
         count("real_refine_max"),
         count("real_reference_median"),
