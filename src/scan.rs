@@ -211,6 +211,12 @@ impl Raster {
         self.cell
     }
 
+    /// `metres` in Q16 cells of this raster (at most 10¹², so that
+    /// products stay in `i64`; a NaN cell size gives that bound too).
+    pub(crate) fn metres_q16(&self, metres: f32) -> i64 {
+        (f64::from(metres) * self.inv_cell * 65_536.0).min(1e12) as i64
+    }
+
     /// The raster's settings as stored with a
     /// [`ScanReference`](crate::ScanReference): metres per cell, the
     /// [`connect`](Self::connect) gap (0 when off) and

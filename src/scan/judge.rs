@@ -37,7 +37,7 @@
 //! # Numbers
 //!
 //! Integer per beam, as in the refinement: Q16 cells, a 32-bit arctangent,
-//! `i64` sums, one integer root per beam read for the seen-through test.
+//! `i64` sums, one integer root per seen-through test.
 //! The vote uses a 41 × 41 byte histogram on the stack (1.7 KiB) and at
 //! most 96 end points of each scan. Cost on the Cortex-M4F
 //! (`examples/real_scans.rs`, `budgets/TABLE.md`): 14.3 M instructions a
@@ -198,7 +198,7 @@ impl Raster {
         alpha: Angle,
         t: (I16F16, I16F16),
     ) -> Option<BeamAgreement> {
-        let q16 = |metres: f32| (f64::from(metres) * self.inv_cell * 65_536.0).min(1e12) as i64;
+        let q16 = |metres: f32| self.metres_q16(metres);
         // τ between 1/256 cell and 256 cells: τ² below 2⁴⁸.
         let tau = q16(BEAM_MATCH_M).clamp(1 << 8, 1 << 24);
         let margin = q16(BEAM_SEEN_THROUGH_M).clamp(0, 1 << 30);
@@ -357,7 +357,7 @@ fn voted_translations(
     alpha: Angle,
 ) -> Vec<(I16F16, I16F16), VOTE_PEAKS> {
     let mut peaks = Vec::new();
-    let bin = ((f64::from(VOTE_BIN_M) * raster.inv_cell * 65_536.0).min(1e12) as i64).max(1);
+    let bin = raster.metres_q16(VOTE_BIN_M).max(1);
     let (s, c) = sin_cos(alpha.0.wrapping_neg());
     let (c, s) = (i64::from(c), i64::from(s));
     let mut turned: Vec<(i64, i64), VOTE_POINTS> = Vec::new();

@@ -151,9 +151,7 @@ impl<'a> Segments<'a> {
         let beams = ScanBeams::new(scan, raster);
         let origin = beams.near_origin()?;
         let (start, step) = beams.angles();
-        let max_len = ((f64::from(BEAM_SEGMENT_MAX_M) * raster.inv_cell * 65_536.0).min(1e12)
-            as i64)
-            .max(1) as u64;
+        let max_len = raster.metres_q16(BEAM_SEGMENT_MAX_M).max(1) as u64;
         let counter_clockwise = (step as i64) >= 0;
         let step = if counter_clockwise {
             step
@@ -516,8 +514,7 @@ impl Raster {
         }
         let cur_beams = ScanBeams::new(current, self);
         let mut segments = Segments::new(self, reference).ok_or(BeamFitError::TooFewPairs)?;
-        let inv_cell = self.inv_cell;
-        let q16 = |metres: f32| (f64::from(metres) * inv_cell * 65_536.0).min(1e12) as i64;
+        let q16 = |metres: f32| self.metres_q16(metres);
         // At most 256 cells (tiny cells): the sums' bound (`Normal::add`).
         let (trim_min, trim_max) = (
             q16(BEAM_TRIM_MIN_M).min(1 << 24),
