@@ -60,7 +60,7 @@ mod sine;
 pub use beam::{BeamEnd, ScanBeams, BEAM_FAR_CELLS, BEAM_NEAR_CELLS};
 pub use free::{FreeSpace, FREE_MARGIN_CELLS, FREE_MARGIN_SHIFT};
 pub use judge::{
-    BeamAgreement, BeamCheck, BeamPose, BEAM_MATCH_M, BEAM_SEEN_THROUGH_M,
+    BeamAgreement, BeamCheck, BeamPose, BEAM_MATCH_M, BEAM_MIN_SCORE, BEAM_SEEN_THROUGH_M,
     BEAM_SEEN_THROUGH_WEIGHT, BEAM_SWITCH_LEAD,
 };
 pub use refine::{

@@ -323,7 +323,8 @@ pub struct OutputLine {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub beam_fit: Option<BeamFitLine>,
     /// The candidates judged again on the beams, when that ran
-    /// (`Raster::check_on_beams`; `contradicts` flagged a confident answer).
+    /// (`Raster::check_on_beams`; `contradicts` or `too_weak` flagged a
+    /// confident answer).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub beam_check: Option<BeamCheckLine>,
     /// Beams of each scan dropped by reason, when any was (so a
@@ -414,6 +415,9 @@ pub struct BeamCheckLine {
     /// The rival leads by `BEAM_SWITCH_LEAD` or more: it is the answer
     /// (unless a prior was given).
     pub switches: bool,
+    /// The grid's answer scores below `BEAM_MIN_SCORE` on the beams (a
+    /// confident answer is then `low_overlap`).
+    pub too_weak: bool,
 }
 
 /// The best other rotation on the beams.
@@ -440,6 +444,7 @@ impl BeamCheckLine {
             }),
             contradicts: check.contradicts(),
             switches: check.switches(),
+            too_weak: check.too_weak(),
         }
     }
 }

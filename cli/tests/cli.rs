@@ -640,7 +640,7 @@ fn the_refinement_on_the_beams_brings_real_pairs_closer_to_the_truth() {
 /// The check on the beams (`Raster::check_on_beams`, on by default)
 /// against the file's ground truth on all 1 210 `fr079-flirt` pairs at
 /// 128²: the wrong share (> 5°) among the confident answers falls (here
-/// 35 of 957 → 13 of 931), and where the beams replace the grid's answer
+/// 35 of 957 → 3 of 875), and where the beams replace the grid's answer
 /// they bring far more pairs within 2° than they take out (52 against 9);
 /// `--no-beam-check` gives no `beam_check`.
 #[test]

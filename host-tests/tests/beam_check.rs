@@ -8,7 +8,7 @@
 
 use host_tests::raycast::{l_room as room, relative, Laser};
 use hough_heading::stages::{
-    BEAM_MATCH_M, BEAM_SEEN_THROUGH_M, BEAM_SEEN_THROUGH_WEIGHT, BEAM_SEGMENT_MAX_M,
+    BEAM_MATCH_M, BEAM_MIN_SCORE, BEAM_SEEN_THROUGH_M, BEAM_SEEN_THROUGH_WEIGHT, BEAM_SEGMENT_MAX_M,
 };
 use hough_heading::{
     estimator, grid, Angle, Candidate, FreeSpace, Mode, Raster, Scan, Score, Status,
@@ -258,4 +258,55 @@ fn unusable_inputs_give_no_judgement() {
         .unwrap();
     assert!(same.explained > Score::from_num(0.95), "{same:?}");
     assert_eq!(same.seen_through, Score::ZERO);
+}
+
+/// A rotation 30° off in a room of right angles lays no wall onto a wall:
+/// alone in the estimate (nothing outscores it), the beams do not confirm
+/// it and `flag` makes it `LowOverlap` with a confidence of at most ¼; the
+/// right answer clears `BEAM_MIN_SCORE` by far.
+#[test]
+fn an_estimate_the_beams_do_not_confirm_is_flagged() {
+    let (laser, raster) = (laser(), raster());
+    let first = laser.scan(&room(), FROM);
+    let (mut grid1, mut free1) = (G128::new(), G128::new());
+    raster.rasterize(&laser.as_scan(&first), &mut grid1);
+    raster.free_space(&laser.as_scan(&first), &mut free1);
+    let mut e = E128::new(Mode::Improved);
+    let reference = e.reference(&grid1);
+    let floor = Score::from_num(BEAM_MIN_SCORE);
+    for to in TO {
+        let second = laser.scan(&room(), to);
+        let (mut grid2, mut free2) = (G128::new(), G128::new());
+        raster.rasterize(&laser.as_scan(&second), &mut grid2);
+        raster.free_space(&laser.as_scan(&second), &mut free2);
+        let views = FreeSpace {
+            reference: &free1,
+            current: &free2,
+        };
+        let (s1, s2) = (laser.as_scan(&first), laser.as_scan(&second));
+        let estimate = e.estimate_scans(&reference, &grid2, &views, None);
+        let check = raster.check_on_beams(&s1, &s2, &estimate).unwrap();
+        assert!(!check.too_weak(), "{to:?}: {check:?}");
+        assert!(
+            check.chosen.agreement.score() > floor * 2,
+            "{to:?}: {check:?}"
+        );
+        let truth = estimate.candidates[0];
+        let off = Candidate {
+            alpha: truth.alpha + Angle::from_degrees(30.0),
+            ..truth
+        };
+        let mut lonely = estimate.clone();
+        lonely.alpha = off.alpha;
+        lonely.candidates.clear();
+        lonely.candidates.push(off).unwrap();
+        lonely.runner_up = None;
+        let check = raster.check_on_beams(&s1, &s2, &lonely).unwrap();
+        assert!(check.rival.is_none() && !check.contradicts());
+        assert!(check.too_weak(), "{to:?}: {check:?}");
+        check.apply(&mut lonely);
+        assert_eq!(lonely.status, Status::LowOverlap, "{to:?}");
+        assert!(lonely.confidence <= Score::from_num(0.25));
+        assert_eq!(lonely.alpha, off.alpha, "nothing to switch to");
+    }
 }

@@ -66,6 +66,13 @@ pub const BEAM_SEEN_THROUGH_WEIGHT: i32 = 2;
 /// Lead in score by which the beams' rival replaces the grid's answer
 /// ([`BeamCheck::switches`]; chosen on the shared real pairs).
 pub const BEAM_SWITCH_LEAD: f32 = 0.05;
+/// Score ([`BeamAgreement::score`]) below which the chosen pose lays too
+/// little of the scans onto each other to be trusted
+/// ([`BeamCheck::too_weak`]): about a third of the end points or less
+/// explained. Chosen on the shared real pairs, where it took the wrong
+/// share among unflagged answers from 2.3 to 1.4 % and flagged 2.3 % more
+/// of the pairs (`docs/confidence.md`).
+pub const BEAM_MIN_SCORE: f32 = 0.3;
 
 /// How well a pose lays two scans onto each other, both ways
 /// ([`Raster::agreement_on_beams`]).
@@ -136,26 +143,37 @@ impl BeamCheck {
             .is_some_and(|l| l >= Score::from_num(BEAM_SWITCH_LEAD))
     }
 
-    /// Flags `estimate` when the beams contradict it: a confident answer
-    /// becomes [`Status::AmbiguousDirection`] (the rival within 45° of its
-    /// half turn) or [`Status::AmbiguousAxis`], and any contradicted answer's
-    /// confidence is at most ¼: on the shared real pairs (256²) the grid's
-    /// answer was within 2° in 18 % of the contradicted pairs, the rival in
-    /// 36 % (41 % where it led by [`BEAM_SWITCH_LEAD`]). Everything else is
-    /// kept.
+    /// The chosen pose scores below [`BEAM_MIN_SCORE`]: whatever the
+    /// rivals, the beams do not confirm it.
+    pub fn too_weak(&self) -> bool {
+        self.chosen.agreement.score() < Score::from_num(BEAM_MIN_SCORE)
+    }
+
+    /// Flags `estimate` when the beams contradict it or do not confirm it.
+    /// Contradicted (a rival outscores the chosen rotation): a confident
+    /// answer becomes [`Status::AmbiguousDirection`] (the rival within 45°
+    /// of its half turn) or [`Status::AmbiguousAxis`]. Too weak
+    /// ([`too_weak`](Self::too_weak)) and not contradicted: a confident answer
+    /// becomes [`Status::LowOverlap`]. Either way the confidence is at most
+    /// ¼: on the shared real pairs (256²) the grid's answer was within 2° in
+    /// 18 % of the contradicted pairs, the rival in 36 % (41 % where it led
+    /// by [`BEAM_SWITCH_LEAD`]). Everything else is kept.
     pub fn flag(&self, estimate: &mut Estimate) {
-        let Some(rival) = self.rival.filter(|_| self.contradicts()) else {
+        let contradicting = self.rival.filter(|_| self.contradicts());
+        if contradicting.is_none() && !self.too_weak() {
             return;
-        };
+        }
         estimate.confidence = estimate.confidence.min(Score::from_bits(1 << 14));
         if estimate.status != Status::Confident {
             return;
         }
         let eighth = Angle(1 << 29);
-        estimate.status = if rival.listed.distance(estimate.alpha + Angle::HALF_TURN) < eighth {
-            Status::AmbiguousDirection
-        } else {
-            Status::AmbiguousAxis
+        estimate.status = match contradicting {
+            Some(rival) if rival.listed.distance(estimate.alpha + Angle::HALF_TURN) < eighth => {
+                Status::AmbiguousDirection
+            }
+            Some(_) => Status::AmbiguousAxis,
+            None => Status::LowOverlap,
         };
     }
 
