@@ -45,7 +45,7 @@
 //! on the host about 6 % of a pair.
 
 use super::beam::{BeamEnd, ScanBeams};
-use super::refine::{atan2_turns, for_each_end, FitPose, Segments};
+use super::refine::{for_each_end, FitPose, Segments};
 use super::sine::sin_cos;
 use super::{Raster, Scan};
 use crate::angle::Angle;
@@ -219,7 +219,8 @@ impl Raster {
         let q16 = |metres: f32| self.metres_q16(metres);
         // τ between 1/256 cell and 256 cells: τ² below 2⁴⁸.
         let tau = q16(BEAM_MATCH_M).clamp(1 << 8, 1 << 24);
-        let margin = q16(BEAM_SEEN_THROUGH_M).clamp(0, 1 << 30);
+        // At least 32 units (cells below 200 m): `seen_through` needs it.
+        let margin = q16(BEAM_SEEN_THROUGH_M).clamp(32, 1 << 30);
         let (tx, ty) = (i64::from(t.0.to_bits()), i64::from(t.1.to_bits()));
         // As the refinement: a translation beyond the beams' reach.
         if tx.abs().max(ty.abs()) >= 1 << 30 {
@@ -378,13 +379,18 @@ fn voted_translations(
     let bin = raster.metres_q16(VOTE_BIN_M).max(1);
     let (s, c) = sin_cos(alpha.0.wrapping_neg());
     let (c, s) = (i64::from(c), i64::from(s));
+    // Coordinates in bins to 1/256 (one division per point, none per pair).
+    let in_bins = |v: i64| (v << 8).div_euclid(bin);
     let mut turned: Vec<(i64, i64), VOTE_POINTS> = Vec::new();
     let cur = ScanBeams::new(current, raster);
     let stride = current.ranges.len().div_ceil(VOTE_POINTS).max(1);
     for (i, &range) in current.ranges.iter().enumerate().step_by(stride) {
         if let BeamEnd::Near { x, y } = cur.end(i, range) {
             let (x, y) = (i64::from(x), i64::from(y));
-            let _ = turned.push(((c * x - s * y) >> 16, (s * x + c * y) >> 16));
+            let _ = turned.push((
+                in_bins((c * x - s * y) >> 16),
+                in_bins((s * x + c * y) >> 16),
+            ));
         }
     }
     let half = (VOTE_BINS / 2) as i64;
@@ -395,8 +401,9 @@ fn voted_translations(
         let BeamEnd::Near { x, y } = refs.end(i, range) else {
             continue;
         };
+        let (x, y) = (in_bins(i64::from(x)), in_bins(i64::from(y)));
         for &(qx, qy) in &turned {
-            let d = |p: i32, q: i64| (i64::from(p) - q + bin / 2).div_euclid(bin) + half;
+            let d = |p: i64, q: i64| ((p - q + 128) >> 8) + half;
             let (bx, by) = (d(x, qx), d(y, qy));
             let cell = usize::try_from(by)
                 .ok()
@@ -450,26 +457,31 @@ fn one_way(
     let (s, c) = sin_cos(pose.theta);
     let rot = (i64::from(c), i64::from(s));
     let tau_sq = tau * tau;
-    let unit = (tau_sq >> 16).max(1);
-    let (mut explained, mut seen, mut count) = (0i64, 0i64, 0i64);
+    // Σ (τ² − r²), divided once at the end (τ² < 2⁴⁸: the sum in 128 bits).
+    let (mut explained, mut seen, mut count) = (0i128, 0i64, 0i64);
     for_each_end(from, ranges, |q| {
         count += 1;
         let p = pose.apply(rot, q);
-        if let Some((r, _)) = into.nearest(p) {
+        let Some(beam) = into.beam_of(p) else {
+            return;
+        };
+        if let Some((r, _)) = into.nearest_around(p, beam) {
             let r = r.abs().min(tau);
-            explained += (tau_sq - r * r) / unit;
+            explained += i128::from(tau_sq - r * r);
         }
-        seen += i64::from(into.seen_through(p, margin));
+        seen += i64::from(into.seen_through(p, beam, margin));
     });
-    (count > 0).then(|| (explained / count, (seen << 16) / count))
+    // The mean of 1 − (r/τ)², Q16: below 2¹⁶ + 1.
+    let explained = |count: i64| ((explained << 16) / i128::from(tau_sq * count)) as i64;
+    (count > 0).then(|| (explained(count), (seen << 16) / count))
 }
 
 impl Segments<'_> {
-    /// `p` (Q16 cells) lies nearer to the sensor than each of the four
-    /// beams around its bearing measured, by more than `margin` (Q16
-    /// cells) plus 1/32 of that range; false outside the field of view or
-    /// next to a beam without a near return.
-    fn seen_through(&mut self, p: (i64, i64), margin: i64) -> bool {
+    /// `p` (Q16 cells, around `beam`: [`Segments::beam_of`]) lies nearer to
+    /// the sensor than each of the four beams around its bearing measured,
+    /// by more than `margin` (Q16 cells, at least 32) plus 1/32 of that
+    /// range; false next to a beam without a near return.
+    fn seen_through(&mut self, p: (i64, i64), beam: i64, margin: i64) -> bool {
         let (dx, dy) = (
             p.0 - i64::from(self.origin.0),
             p.1 - i64::from(self.origin.1),
@@ -478,10 +490,7 @@ impl Segments<'_> {
         if dx.abs().max(dy.abs()) >= 1 << 30 {
             return false;
         }
-        let Some(beam) = self.beam_before(atan2_turns(dy, dx)) else {
-            return false;
-        };
-        // The nearest of the four ranges, squared first (one root).
+        // The nearest of the four ranges, squared.
         let mut nearest_sq = u64::MAX;
         for k in beam - 1..=beam + 2 {
             let Some(e) = self.end(k) else {
@@ -492,6 +501,14 @@ impl Segments<'_> {
                 i64::from(e.1) - i64::from(self.origin.1),
             );
             nearest_sq = nearest_sq.min((ex * ex + ey * ey) as u64);
+        }
+        let distance_sq = (dx * dx + dy * dy) as u64;
+        // Without a root first: the limit below is at most 31/32 of the
+        // range when the margin is at least one unit, and (31/32)² =
+        // 0.93848 < 1 − 1/16 + 1/512; below 32² the margin of 32 leaves
+        // no limit at all.
+        if distance_sq >= nearest_sq - nearest_sq / 16 + nearest_sq / 512 {
+            return false;
         }
         let nearest = nearest_sq.isqrt() as i64;
         let limit = nearest - nearest / 32 - margin;

@@ -226,16 +226,28 @@ impl Segments<'_> {
         }
     }
 
-    /// The signed distance (Q16 cells) of `p` (Q16 cells) to the line of the
-    /// usable segment around its bearing whose midpoint is nearest, with
-    /// that line's unit normal (Q15). The choice needs no root or division;
-    /// the chosen segment's normal takes one of each.
-    pub(super) fn nearest(&mut self, p: (i64, i64)) -> Option<(i64, (i64, i64))> {
+    /// The beam at or just before the bearing of `p` (Q16 cells) from the
+    /// sensor ([`beam_before`](Self::beam_before)).
+    pub(super) fn beam_of(&self, p: (i64, i64)) -> Option<i64> {
         let (dx, dy) = (
             p.0 - i64::from(self.origin.0),
             p.1 - i64::from(self.origin.1),
         );
-        let beam = self.beam_before(atan2_turns(dy, dx))?;
+        self.beam_before(atan2_turns(dy, dx))
+    }
+
+    /// The signed distance (Q16 cells) of `p` (Q16 cells) to the line of the
+    /// usable segment around its bearing whose midpoint is nearest, with
+    /// that line's unit normal (Q15).
+    pub(super) fn nearest(&mut self, p: (i64, i64)) -> Option<(i64, (i64, i64))> {
+        let beam = self.beam_of(p)?;
+        self.nearest_around(p, beam)
+    }
+
+    /// [`nearest`](Self::nearest) given the beam around `p`'s bearing
+    /// ([`beam_of`](Self::beam_of)). The choice needs no root or division;
+    /// the chosen segment's normal takes one of each.
+    pub(super) fn nearest_around(&mut self, p: (i64, i64), beam: i64) -> Option<(i64, (i64, i64))> {
         // (squared distance to the midpoint, start, direction)
         let mut best: Option<(u32, Point, Point)> = None;
         let mut b = self.end(beam - 1);
