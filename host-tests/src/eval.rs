@@ -191,6 +191,15 @@ pub struct Outcome {
     /// Relative scale error `|ŝ − s| / s` when a translation (and so a
     /// scale, 1 unless searched) was returned.
     pub scale_error: Option<f64>,
+    /// [`Estimate::confidence`].
+    pub confidence: f64,
+    /// [`Estimate::overlap`].
+    pub overlap: f64,
+    /// The winner's support and the runner-up's (`NaN` when absent).
+    pub supports: (f64, f64),
+    /// A listed candidate is within [`GROSS_DEG`] of the truth (modulo 180°
+    /// for half-turn symmetric scenes).
+    pub truth_listed: bool,
 }
 
 impl Outcome {
@@ -260,6 +269,27 @@ pub fn outcome(estimate: &Estimate, truth: &Transform, half_turn_symmetric: bool
         scale_error: estimate
             .translation
             .map(|t| (t.scale.to_num::<f64>() - truth.scale).abs() / truth.scale),
+        confidence: estimate.confidence.to_num(),
+        overlap: estimate.overlap.to_num(),
+        supports: (
+            estimate
+                .candidates
+                .first()
+                .and_then(|c| c.support)
+                .map_or(f64::NAN, |s| s.to_num()),
+            estimate
+                .runner_up
+                .and_then(|c| c.support)
+                .map_or(f64::NAN, |s| s.to_num()),
+        ),
+        truth_listed: estimate.candidates.iter().any(|c| {
+            let e = if half_turn_symmetric {
+                axis_error_deg(c.alpha, truth.alpha_rad)
+            } else {
+                angle_error_deg(c.alpha, truth.alpha_rad)
+            };
+            e <= GROSS_DEG
+        }),
     }
 }
 

@@ -69,10 +69,11 @@ impl<
         let mut pyramid = Pyramid::<W, H, PW>::new();
         pyramid.build(reference.grid());
         let max_shift = self.max_shift() as i32;
-        // The scale the profile test found (1 without a scale search) holds
-        // for every candidate rotation.
-        let scale_q16 = hint.map_or(1 << 16, |(_, t)| t.scale.to_bits().max(1 << 15) as u32);
-        let inv_scale_q16 = ((1u64 << 32) / u64::from(scale_q16)) as u32;
+        // The scale the profile test found for the best peak (1 without a
+        // scale search); with a scale search, each other peak gets its own
+        // (a wrong peak's scale would handicap the right one: up to 20 %
+        // apart over 0.9–1.1).
+        let hint_scale = hint.map_or(1 << 16, |(_, t)| scale_of(&t));
         let separation = Angle::from_steps_q16(((N / 72).max(2) as i64) << 16, N);
         let mut seeds: Vec<Seed, SEEDS> = Vec::new();
         let (winner, points, near, alpha, u_q8, cut) = {
@@ -88,7 +89,7 @@ impl<
                 &pyramid,
                 grid,
                 free_penalty,
-                inv_scale_q16,
+                inverse(hint_scale),
             )
             .with_budget(t.search_budget);
             // 1. Both halves of the strongest distinct peaks, each with the
@@ -106,20 +107,34 @@ impl<
                 let alpha =
                     Angle::from_steps_q16(((peak.shift as i64) << 16) + peak.offset_q16(), N);
                 let score = correlation.score(peak);
+                let on_hint =
+                    hint.is_some_and(|(h, _)| h == alpha || h == alpha + Angle::HALF_TURN);
+                let peak_hint = match hint {
+                    Some(h) if on_hint => Some(h),
+                    _ if self.scale.is_some() => {
+                        let (half, _, pose) = self.profile_test(reference, grid, alpha);
+                        pose.map(|p| (half, p))
+                    }
+                    _ => None,
+                };
+                let scale = peak_hint.map_or(hint_scale, |(_, t)| scale_of(&t));
                 // The half the profile test chose goes first: its translation
                 // gives the search a floor at once.
-                let halves = match hint {
+                let halves = match peak_hint {
                     Some((h, _)) if h == alpha + Angle::HALF_TURN => [h, alpha],
                     _ => [alpha, alpha + Angle::HALF_TURN],
                 };
                 for half in halves {
-                    let hinted = hint.filter(|(h, _)| *h == half).map(|(_, t)| t);
+                    let hinted = peak_hint.filter(|(h, _)| *h == half).map(|(_, t)| t);
                     seed_at::<W, H, RW, N, PW>(
                         &mut aligner,
                         &mut seeds,
-                        half,
-                        score,
-                        hinted.as_ref(),
+                        SeedStart {
+                            alpha: half,
+                            correlation: score,
+                            hinted: hinted.as_ref(),
+                            scale_q16: scale,
+                        },
                         max_shift,
                         t.alignment_ratio,
                     );
@@ -133,9 +148,12 @@ impl<
                     seed_at::<W, H, RW, N, PW>(
                         &mut aligner,
                         &mut seeds,
-                        best.placement.alpha + quarter,
-                        Score::ZERO,
-                        None,
+                        SeedStart {
+                            alpha: best.placement.alpha + quarter,
+                            correlation: Score::ZERO,
+                            hinted: None,
+                            scale_q16: best.scale_q16,
+                        },
                         max_shift,
                         t.alignment_ratio,
                     );
@@ -164,6 +182,7 @@ impl<
                 if seed.placement.score * 2 < strongest {
                     continue;
                 }
+                aligner.set_inv_scale(inverse(seed.scale_q16));
                 seed.placement = angle_search::<W, H, RW, N, PW>(&mut aligner, &seed.placement);
             }
             // 3. Every seed judged both ways on the large sample.
@@ -175,7 +194,7 @@ impl<
                     free,
                     p.alpha,
                     shift_q8(p.shift),
-                    scale_q16,
+                    seed.scale_q16,
                 );
             }
             sort_descending(&mut seeds, |s| support_key(s.support(&t)));
@@ -184,8 +203,10 @@ impl<
             };
             // 4. ICP below one cell and one θ step; kept unless it loses
             //    alignment (e.g. drawn onto a neighbouring wall).
+            let inv_scale_q16 = inverse(winner.scale_q16);
             let (alpha, u_q8) =
                 refine::<W, H, RW, N>(reference.grid(), grid, &winner.placement, inv_scale_q16);
+            aligner.set_inv_scale(inv_scale_q16);
             aligner.rotate::<N>(alpha, u_q8);
             let refined = aligner.score((0, 0));
             // The decision stays with the seeds' agreements: each judged at
@@ -251,7 +272,7 @@ impl<
             } else {
                 (seed.placement.alpha, shift_q8(seed.placement.shift))
             };
-            let tr = verified_translation::<N>(candidate_alpha, u, scale_q16, None);
+            let tr = verified_translation::<N>(candidate_alpha, u, seed.scale_q16, None);
             Candidate {
                 alpha: candidate_alpha,
                 score: seed.correlation.clamp(Score::ZERO, Score::ONE),
@@ -300,7 +321,7 @@ impl<
             Some(verified_translation::<N>(
                 alpha,
                 u_q8,
-                scale_q16,
+                winner.scale_q16,
                 fit.as_ref(),
             ))
         } else {
@@ -331,6 +352,8 @@ struct Seed {
     placement: Placement,
     correlation: Score,
     agreement: Agreement,
+    /// The scale `s` (Q16) the seed was searched and is judged at.
+    scale_q16: u32,
 }
 
 impl Seed {
@@ -350,19 +373,34 @@ fn shift_q8(shift: (i32, i32)) -> (i64, i64) {
     (i64::from(shift.0) << 8, -(i64::from(shift.1) << 8))
 }
 
-/// Adds the seed of rotation `alpha` with its best translation, unless it
-/// cannot reach the best so far divided by `ratio` (then it is no
-/// candidate) or is already a seed within one θ step. `hinted`: the pose
-/// the profile test fitted for this rotation, a floor for the search.
+/// A rotation to seed the verification with ([`seed_at`]).
+struct SeedStart<'p> {
+    alpha: Angle,
+    /// Its correlation peak's score (0 for the quarter turns).
+    correlation: Score,
+    /// The pose the profile test fitted for this rotation, a floor for the
+    /// search.
+    hinted: Option<&'p Pose>,
+    /// The scale `s` (Q16) to search at; the aligner is set to it.
+    scale_q16: u32,
+}
+
+/// Adds the seed of `start` with its best translation, unless it cannot
+/// reach the best so far divided by `ratio` (then it is no candidate) or
+/// is already a seed within one θ step.
 fn seed_at<const W: usize, const H: usize, const RW: usize, const N: usize, const PW: usize>(
     aligner: &mut Aligner<'_, W, H, RW, PW>,
     seeds: &mut Vec<Seed, SEEDS>,
-    alpha: Angle,
-    correlation: Score,
-    hinted: Option<&Pose>,
+    start: SeedStart<'_>,
     max_shift: i32,
     ratio: Score,
 ) {
+    let SeedStart {
+        alpha,
+        correlation,
+        hinted,
+        scale_q16,
+    } = start;
     let step = Angle::from_steps_q16(1 << 16, N);
     if seeds.is_full()
         || seeds
@@ -371,6 +409,7 @@ fn seed_at<const W: usize, const H: usize, const RW: usize, const N: usize, cons
     {
         return;
     }
+    aligner.set_inv_scale(inverse(scale_q16));
     aligner.rotate::<N>(alpha, (0, 0));
     let floor = seeds
         .iter()
@@ -390,8 +429,19 @@ fn seed_at<const W: usize, const H: usize, const RW: usize, const N: usize, cons
             },
             correlation,
             agreement: Agreement::default(),
+            scale_q16,
         });
     }
+}
+
+/// A pose's scale, Q16, at least ½ (the scale searches stay far above).
+fn scale_of(pose: &Pose) -> u32 {
+    pose.scale.to_bits().max(1 << 15) as u32
+}
+
+/// `1/s` in Q16 of a scale `s` in Q16 (at least ½: below 2¹⁷).
+fn inverse(scale_q16: u32) -> u32 {
+    ((1u64 << 32) / u64::from(scale_q16.max(1))) as u32
 }
 
 /// What the correlation and the profile test found, handed to the

@@ -168,6 +168,12 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
         (from.shift.0 + dc as i32, from.shift.1 + dr as i32)
     }
 
+    /// Sets `1/s` (Q16) for the next [`Self::rotate`]: the view is at scale
+    /// `s` = 2¹⁶ / `inv_scale_q16` of the reference.
+    pub(crate) fn set_inv_scale(&mut self, inv_scale_q16: u32) {
+        self.inv_scale_q16 = i64::from(inv_scale_q16);
+    }
+
     /// Number of points scored (`min(occupied, align_points(W, H))`).
     pub(crate) fn points(&self) -> u32 {
         self.count as u32
