@@ -291,14 +291,18 @@ impl Raster {
             .candidates
             .iter()
             .chain(estimate.runner_up.as_ref());
-        for candidate in listed {
+        // The chosen rotation first: a rival that cannot come near it is not
+        // refined.
+        let in_order = listed
+            .clone()
+            .filter(|c| c.translation.is_some() && c.alpha.distance(estimate.alpha) < separation)
+            .take(1)
+            .chain(listed.filter(|c| c.alpha.distance(estimate.alpha) >= separation));
+        for candidate in in_order {
             let Some((x, y)) = candidate.translation else {
                 continue;
             };
             let is_chosen = candidate.alpha.distance(estimate.alpha) < separation;
-            if is_chosen && chosen.is_some() {
-                continue;
-            }
             let grid = Pose {
                 x,
                 y,
@@ -326,6 +330,16 @@ impl Raster {
             else {
                 continue;
             };
+            let hopeless = chosen.is_some_and(|c| {
+                best_start.agreement.score() + Score::from_num(BEAM_REFINE_REACH)
+                    < c.agreement.score()
+            });
+            if hopeless {
+                if rival.is_none_or(|r| best_start.agreement.score() > r.agreement.score()) {
+                    rival = Some(best_start);
+                }
+                continue;
+            }
             let (bx, by) = best_start.translation;
             let start = Pose {
                 x: bx,
@@ -352,6 +366,10 @@ impl Raster {
         })
     }
 }
+
+/// A rival whose best start scores this much below the chosen pose is not
+/// refined: the refinement does not lift it that far.
+const BEAM_REFINE_REACH: f32 = 0.2;
 
 /// Bins of the translation vote per axis (odd: one is centred on 0).
 const VOTE_BINS: usize = 41;
