@@ -30,19 +30,24 @@
 //! Measured on the shared real pairs (256², `N_θ` = 360, `bash
 //! tools/confidence.sh`, `docs/confidence.md`): over all 4 730 pairs,
 //! within 2° / flagged / wrong among unflagged 80.3 / 25.3 / 4.4 % without
-//! the check, 82.4 / 27.6 / 2.3 % with it. τ, the weight and the lead were
-//! chosen on those same files; an exhaustive float model of the decision
+//! the check, 82.4 / 27.6 / 2.3 % with it, 82.4 / 29.9 / 1.4 % with its
+//! floor ([`BEAM_MIN_SCORE`]: a chosen pose the beams do not confirm is
+//! flagged too). τ, the weight, the lead and the floor were chosen on
+//! those same files; an exhaustive float model of the decision
 //! (`tools/csm_model.py`) is what pointed at the rivals' poses.
 //!
 //! # Numbers
 //!
-//! Integer per beam, as in the refinement: Q16 cells, a 32-bit arctangent,
-//! `i64` sums, one integer root per seen-through test.
-//! The vote uses a 41 × 41 byte histogram on the stack (1.7 KiB) and at
-//! most 96 end points of each scan. Cost on the Cortex-M4F
-//! (`examples/real_scans.rs`, `budgets/TABLE.md`): 14.3 M instructions a
-//! real pair (median), as much as the estimate, and 3.4 KiB more stack;
-//! on the host about 6 % of a pair.
+//! Integer per beam, as in the refinement: Q16 cells, one 32-bit
+//! arctangent per end point, `i64` sums, an integer root only for the
+//! seen-through tests a comparison of squares cannot settle, one division
+//! per scan for the explained share. The vote uses a 41 × 41 byte
+//! histogram on the stack (1.7 KiB) and at most 96 end points of each scan,
+//! in bin units (one division per end point). A rival whose best start
+//! trails the chosen pose by 0.2 or more is not refined. Cost on
+//! the Cortex-M4F (`examples/real_scans.rs`, `budgets/TABLE.md`): 8.1 M
+//! instructions a real pair (median; 30.6 M at most), about half the
+//! estimate, and 3.4 KiB more stack; on the host about 6 % of a pair.
 
 use super::beam::{BeamEnd, ScanBeams};
 use super::refine::{for_each_end, FitPose, Segments};
@@ -276,7 +281,10 @@ impl Raster {
     ///
     /// Cost per listed rotation (at most five): one vote (96 × 96 end-point
     /// pairs), five [`agreement_on_beams`](Self::agreement_on_beams)
-    /// and one refinement.
+    /// and one refinement. The chosen rotation goes first; a rival whose
+    /// best start trails it by 0.2 or more is not refined (its score is the
+    /// start's: no refinement measured on the shared pairs lifted a rival
+    /// that far).
     pub fn check_on_beams(
         &self,
         reference: &Scan<'_>,
