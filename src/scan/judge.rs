@@ -283,8 +283,8 @@ impl Raster {
     /// pairs), five [`agreement_on_beams`](Self::agreement_on_beams)
     /// and one refinement. The chosen rotation goes first; a rival whose
     /// best start trails it by 0.2 or more is not refined (its score is the
-    /// start's: no refinement measured on the shared pairs lifted a rival
-    /// that far).
+    /// start's; on the shared real pairs this changed no answer, only the
+    /// reported scores of such rivals).
     pub fn check_on_beams(
         &self,
         reference: &Scan<'_>,
