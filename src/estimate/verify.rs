@@ -34,6 +34,38 @@ impl<
         const PW: usize,
     > Estimator<W, H, RW, N, HALF, RHO, PW>
 {
+    /// The scale (Q16) each of `peaks` is verified at: the one the profile
+    /// test found for the best peak (`hint`; 1 without a scale search);
+    /// with a scale search, each other peak's own (a wrong peak's scale
+    /// would handicap the right one: up to 20 % apart over 0.9–1.1; its
+    /// translation is not kept: a floor for each peak's search would cost
+    /// 168 B more stack on the M0). Out of line, so that the profile tests'
+    /// scratch is not on the stack during the verification.
+    #[inline(never)]
+    fn peak_scales(
+        &mut self,
+        reference: &Reference<W, H, RW, HALF, RHO>,
+        grid: &Grid<W, H, RW>,
+        peaks: &[&Peak],
+        hint: Option<(Angle, Pose)>,
+    ) -> [u32; VERIFY_PEAKS] {
+        let hint_scale = hint.map_or(1 << 16, |(_, t)| scale_of(&t));
+        let mut scales = [hint_scale; VERIFY_PEAKS];
+        if self.scale.is_none() {
+            return scales;
+        }
+        for (peak, scale) in peaks.iter().zip(scales.iter_mut()) {
+            let alpha = peak_alpha::<N>(peak);
+            let on_hint = hint.is_some_and(|(h, _)| h == alpha || h == alpha + Angle::HALF_TURN);
+            if let (false, (_, _, Some(pose))) =
+                (on_hint, self.profile_test(reference, grid, alpha))
+            {
+                *scale = scale_of(&pose);
+            }
+        }
+        scales
+    }
+
     /// The verification by alignment (improved mode, on by default): both
     /// halves of the strongest correlation peaks are scored by their best
     /// translation ([`Aligner::search`], exact over ±`max_shift`), and their
@@ -64,16 +96,22 @@ impl<
             hint,
         } = found;
         let t = self.thresholds;
+        // The strongest distinct peaks, each verified with both halves.
+        let mut peaks: Vec<&Peak, VERIFY_PEAKS> = Vec::new();
+        for peak in &correlation.peaks {
+            let apart = peaks
+                .iter()
+                .all(|p| circular_distance(p.shift, peak.shift, HALF) >= (N / 72).max(2));
+            if apart && peaks.push(peak).is_err() {
+                break;
+            }
+        }
+        let scales = self.peak_scales(reference, grid, &peaks, hint);
         // Built here, on the stack, so that estimates without verification
         // do not carry it (`4 · PW` bytes: 752 at 128²).
         let mut pyramid = Pyramid::<W, H, PW>::new();
         pyramid.build(reference.grid());
         let max_shift = self.max_shift() as i32;
-        // The scale the profile test found for the best peak (1 without a
-        // scale search); with a scale search, each other peak gets its own
-        // (a wrong peak's scale would handicap the right one: up to 20 %
-        // apart over 0.9–1.1).
-        let hint_scale = hint.map_or(1 << 16, |(_, t)| scale_of(&t));
         let separation = Angle::from_steps_q16(((N / 72).max(2) as i64) << 16, N);
         let mut seeds: Vec<Seed, SEEDS> = Vec::new();
         let (winner, points, near, alpha, u_q8, cut) = {
@@ -89,50 +127,31 @@ impl<
                 &pyramid,
                 grid,
                 free_penalty,
-                inverse(hint_scale),
+                inverse(scales[0]),
             )
             .with_budget(t.search_budget);
             // 1. Both halves of the strongest distinct peaks, each with the
             //    best translation over the whole window.
-            let mut peaks: Vec<&Peak, VERIFY_PEAKS> = Vec::new();
-            for peak in &correlation.peaks {
-                let apart = peaks
-                    .iter()
-                    .all(|p| circular_distance(p.shift, peak.shift, HALF) >= (N / 72).max(2));
-                if apart && peaks.push(peak).is_err() {
-                    break;
-                }
-            }
-            for peak in peaks {
-                let alpha =
-                    Angle::from_steps_q16(((peak.shift as i64) << 16) + peak.offset_q16(), N);
+            for (peak, &scale) in peaks.iter().zip(&scales) {
+                let alpha = peak_alpha::<N>(peak);
                 let score = correlation.score(peak);
-                let on_hint =
-                    hint.is_some_and(|(h, _)| h == alpha || h == alpha + Angle::HALF_TURN);
-                let peak_hint = match hint {
-                    Some(h) if on_hint => Some(h),
-                    _ if self.scale.is_some() => {
-                        let (half, _, pose) = self.profile_test(reference, grid, alpha);
-                        pose.map(|p| (half, p))
-                    }
-                    _ => None,
-                };
-                let scale = peak_hint.map_or(hint_scale, |(_, t)| scale_of(&t));
                 // The half the profile test chose goes first: its translation
                 // gives the search a floor at once.
-                let halves = match peak_hint {
+                let halves = match hint {
                     Some((h, _)) if h == alpha + Angle::HALF_TURN => [h, alpha],
                     _ => [alpha, alpha + Angle::HALF_TURN],
                 };
                 for half in halves {
-                    let hinted = peak_hint.filter(|(h, _)| *h == half).map(|(_, t)| t);
+                    let hinted = hint
+                        .filter(|(h, _)| *h == half)
+                        .map(|(h, t)| hint_shift::<N>(h, &t));
                     seed_at::<W, H, RW, N, PW>(
                         &mut aligner,
                         &mut seeds,
                         SeedStart {
                             alpha: half,
                             correlation: score,
-                            hinted: hinted.as_ref(),
+                            hinted,
                             scale_q16: scale,
                         },
                         max_shift,
@@ -374,13 +393,13 @@ fn shift_q8(shift: (i32, i32)) -> (i64, i64) {
 }
 
 /// A rotation to seed the verification with ([`seed_at`]).
-struct SeedStart<'p> {
+struct SeedStart {
     alpha: Angle,
     /// Its correlation peak's score (0 for the quarter turns).
     correlation: Score,
-    /// The pose the profile test fitted for this rotation, a floor for the
-    /// search.
-    hinted: Option<&'p Pose>,
+    /// The shift (reference cells) the profile test fitted for this
+    /// rotation, a floor for the search.
+    hinted: Option<(i32, i32)>,
     /// The scale `s` (Q16) to search at; the aligner is set to it.
     scale_q16: u32,
 }
@@ -391,7 +410,7 @@ struct SeedStart<'p> {
 fn seed_at<const W: usize, const H: usize, const RW: usize, const N: usize, const PW: usize>(
     aligner: &mut Aligner<'_, W, H, RW, PW>,
     seeds: &mut Vec<Seed, SEEDS>,
-    start: SeedStart<'_>,
+    start: SeedStart,
     max_shift: i32,
     ratio: Score,
 ) {
@@ -417,7 +436,7 @@ fn seed_at<const W: usize, const H: usize, const RW: usize, const N: usize, cons
         .max()
         .map_or(0, |best| irrelevant_below(best, ratio));
     let floor = match hinted {
-        Some(t) => floor.max(aligner.score(hint_shift::<N>(alpha, t)).saturating_sub(1)),
+        Some(shift) => floor.max(aligner.score(shift).saturating_sub(1)),
         None => floor,
     };
     if let Some((shift, score)) = aligner.search((0, 0), max_shift, floor) {
@@ -432,6 +451,11 @@ fn seed_at<const W: usize, const H: usize, const RW: usize, const N: usize, cons
             scale_q16,
         });
     }
+}
+
+/// The rotation of a correlation peak.
+fn peak_alpha<const N: usize>(peak: &Peak) -> Angle {
+    Angle::from_steps_q16(((peak.shift as i64) << 16) + peak.offset_q16(), N)
 }
 
 /// A pose's scale, Q16, at least ½ (the scale searches stay far above).

@@ -37,25 +37,26 @@ use crate::Score;
 /// How one view's sampled cells land on the other view under a pose.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(crate) struct Tally {
-    /// Cells scored.
-    pub(crate) points: u32,
+    /// Cells scored (at most [`icp_points`], 512: 16 bits keep the
+    /// verification's seeds small on the stack).
+    pub(crate) points: u16,
     /// Σ point scores (0, 1 or 2 each).
-    pub(crate) score: u32,
+    pub(crate) score: u16,
     /// Points within one cell of the other view's occupied cells.
-    pub(crate) near: u32,
+    pub(crate) near: u16,
     /// Points scoring 0 on a cell the other view's beams crossed.
-    pub(crate) violations: u32,
+    pub(crate) violations: u16,
 }
 
 impl Tally {
     /// `Σ score / (2·points)` in [0, 1] (0 without points).
     fn alignment(&self) -> Score {
-        share(self.score, 2 * self.points)
+        share(u32::from(self.score), 2 * u32::from(self.points))
     }
 
     /// `violations / points` in [0, 1] (0 without points).
     fn violation(&self) -> Score {
-        share(self.violations, self.points)
+        share(u32::from(self.violations), u32::from(self.points))
     }
 }
 
@@ -137,13 +138,13 @@ fn tally<const W: usize, const H: usize, const RW: usize>(
         let clamp = |v: i64| v.clamp(-(1 << 30), 1 << 30) as i32;
         let (c, r) = (clamp(c), clamp(r));
         let score = point_score(target, c, r);
-        t.points += 1;
-        t.score += score;
+        t.points = t.points.saturating_add(1);
+        t.score = t.score.saturating_add(score as u16);
         if score > 0 {
-            t.near += 1;
+            t.near = t.near.saturating_add(1);
         } else if let Some(free) = target_free {
             if c >= 0 && r >= 0 && free.get(c as usize, r as usize) {
-                t.violations += 1;
+                t.violations = t.violations.saturating_add(1);
             }
         }
     }
