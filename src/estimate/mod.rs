@@ -58,7 +58,8 @@ impl Mode {
 /// the correlation, and per direction test (improved mode) `PROFILE_COLUMNS`
 /// split-vote columns and twice as many profile matches, which also give the
 /// translation. The scale search, when on, adds up to 26 × `PROFILE_COLUMNS`
-/// column votes and matches ([`ScaleRange`]).
+/// column votes and matches per direction test ([`ScaleRange`]), and with
+/// the verification one more direction test per other verified peak.
 #[derive(Clone, Debug)]
 pub struct Estimator<
     const W: usize,
@@ -128,7 +129,11 @@ impl<
     /// Also estimates the scale `s` (improved mode), searching `range`;
     /// without this `s` = 1 (the right model for scans of one sensor or a
     /// camera at a fixed height). Costs up to 26 re-votes and matches of the
-    /// profile columns per estimate (see [`ScaleRange`]).
+    /// profile columns per direction test (see [`ScaleRange`]); with the
+    /// verification each of the (up to three) verified correlation peaks
+    /// gets its own test and is aligned at its own scale: on the Cortex-M4F
+    /// bench scene (128², `N_θ` 360) 14.7 M instructions more than without
+    /// the search (`budgets/TABLE.md`).
     pub const fn with_scale_search(mut self, range: ScaleRange) -> Self {
         self.scale = Some(range);
         self
