@@ -6,16 +6,13 @@
 //! end point and sees through none, a wrong rotation scores far lower, and
 //! an estimate whose listed rival is the truth is flagged.
 
+mod room_turns;
+
 use host_tests::raycast::{l_room as room, relative, Laser};
 use hough_heading::stages::{
     BEAM_MATCH_M, BEAM_MIN_SCORE, BEAM_SEEN_THROUGH_M, BEAM_SEEN_THROUGH_WEIGHT, BEAM_SEGMENT_MAX_M,
 };
-use hough_heading::{
-    estimator, grid, Angle, Candidate, FreeSpace, Mode, Raster, Scan, Score, Status,
-};
-
-type G128 = grid!(128, 128);
-type E128 = estimator!(128, 128, 360);
+use hough_heading::{Angle, Candidate, Raster, Scan, Score, Status};
 
 /// A 180° laser of 361 beams, 30 m (the shared files' geometry).
 fn laser() -> Laser {
@@ -163,23 +160,8 @@ fn the_shares_agree_with_an_f64_reference_and_single_out_the_true_pose() {
 #[test]
 fn an_estimate_whose_rival_is_the_truth_is_flagged() {
     let (laser, raster) = (laser(), raster());
-    let first = laser.scan(&room(), FROM);
-    let (mut grid1, mut free1) = (G128::new(), G128::new());
-    raster.rasterize(&laser.as_scan(&first), &mut grid1);
-    raster.free_space(&laser.as_scan(&first), &mut free1);
-    let mut e = E128::new(Mode::Improved);
-    let reference = e.reference(&grid1);
-    for to in TO {
-        let second = laser.scan(&room(), to);
-        let (mut grid2, mut free2) = (G128::new(), G128::new());
-        raster.rasterize(&laser.as_scan(&second), &mut grid2);
-        raster.free_space(&laser.as_scan(&second), &mut free2);
-        let views = FreeSpace {
-            reference: &free1,
-            current: &free2,
-        };
-        let (s1, s2) = (laser.as_scan(&first), laser.as_scan(&second));
-        let estimate = e.estimate_scans(&reference, &grid2, &views, None);
+    room_turns::each_turn(&laser, &raster, FROM, &TO, |to, first, second, estimate| {
+        let (s1, s2) = (laser.as_scan(first), laser.as_scan(second));
         assert_eq!(estimate.status, Status::Confident, "{to:?}");
         // The right answer: the beams agree, nothing changes.
         let check = raster.check_on_beams(&s1, &s2, &estimate).unwrap();
@@ -226,7 +208,7 @@ fn an_estimate_whose_rival_is_the_truth_is_flagged() {
             .to_num::<f64>()
             .hypot((got.y - t.1).to_num::<f64>());
         assert!(off < 0.2, "{to:?}: {off} cells off");
-    }
+    });
 }
 
 #[test]
@@ -267,24 +249,9 @@ fn unusable_inputs_give_no_judgement() {
 #[test]
 fn an_estimate_the_beams_do_not_confirm_is_flagged() {
     let (laser, raster) = (laser(), raster());
-    let first = laser.scan(&room(), FROM);
-    let (mut grid1, mut free1) = (G128::new(), G128::new());
-    raster.rasterize(&laser.as_scan(&first), &mut grid1);
-    raster.free_space(&laser.as_scan(&first), &mut free1);
-    let mut e = E128::new(Mode::Improved);
-    let reference = e.reference(&grid1);
     let floor = Score::from_num(BEAM_MIN_SCORE);
-    for to in TO {
-        let second = laser.scan(&room(), to);
-        let (mut grid2, mut free2) = (G128::new(), G128::new());
-        raster.rasterize(&laser.as_scan(&second), &mut grid2);
-        raster.free_space(&laser.as_scan(&second), &mut free2);
-        let views = FreeSpace {
-            reference: &free1,
-            current: &free2,
-        };
-        let (s1, s2) = (laser.as_scan(&first), laser.as_scan(&second));
-        let estimate = e.estimate_scans(&reference, &grid2, &views, None);
+    room_turns::each_turn(&laser, &raster, FROM, &TO, |to, first, second, estimate| {
+        let (s1, s2) = (laser.as_scan(first), laser.as_scan(second));
         let check = raster.check_on_beams(&s1, &s2, &estimate).unwrap();
         assert!(!check.too_weak(), "{to:?}: {check:?}");
         assert!(
@@ -308,5 +275,5 @@ fn an_estimate_the_beams_do_not_confirm_is_flagged() {
         assert_eq!(lonely.status, Status::LowOverlap, "{to:?}");
         assert!(lonely.confidence <= Score::from_num(0.25));
         assert_eq!(lonely.alpha, off.alpha, "nothing to switch to");
-    }
+    });
 }

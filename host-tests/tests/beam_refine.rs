@@ -5,13 +5,10 @@
 //! truth well below a cell; it refuses a start it would have to move too
 //! far, and inputs it cannot use, with a typed error.
 
-use host_tests::raycast::{l_room as room, relative, Laser, Wall};
-use hough_heading::{
-    estimator, grid, Angle, BeamFitError, FreeSpace, Mode, Pose, Raster, Scan, Score, Status,
-};
+mod room_turns;
 
-type G128 = grid!(128, 128);
-type E128 = estimator!(128, 128, 360);
+use host_tests::raycast::{l_room as room, relative, Laser, Wall};
+use hough_heading::{Angle, BeamFitError, Pose, Raster, Scan, Score, Status};
 
 /// A 270° laser of 541 beams, 30 m.
 fn laser() -> Laser {
@@ -67,31 +64,16 @@ const TO: [(f64, f64, f64); 4] = [
 #[test]
 fn the_grid_estimate_refined_on_the_beams_is_within_a_tenth_of_a_cell() {
     let (laser, raster) = (laser(), raster());
-    let first = laser.scan(&room(), FROM);
-    let (mut grid1, mut free1) = (G128::new(), G128::new());
-    raster.rasterize(&laser.as_scan(&first), &mut grid1);
-    raster.free_space(&laser.as_scan(&first), &mut free1);
-    let mut e = E128::new(Mode::Improved);
-    let reference = e.reference(&grid1);
     let cell = f64::from(raster.cell());
-    for to in TO {
-        let second = laser.scan(&room(), to);
-        let (mut grid2, mut free2) = (G128::new(), G128::new());
-        raster.rasterize(&laser.as_scan(&second), &mut grid2);
-        raster.free_space(&laser.as_scan(&second), &mut free2);
-        let views = FreeSpace {
-            reference: &free1,
-            current: &free2,
-        };
-        let estimate = e.estimate_scans(&reference, &grid2, &views, None);
+    room_turns::each_turn(&laser, &raster, FROM, &TO, |to, first, second, estimate| {
         assert_eq!(estimate.status, Status::Confident, "{to:?}");
         let t = estimate.translation.unwrap();
         let (d, dtheta) = relative(FROM, to);
         let before = errors(&raster, estimate.alpha, &t, d, dtheta);
         let fit = raster
             .refine_on_beams(
-                &laser.as_scan(&first),
-                &laser.as_scan(&second),
+                &laser.as_scan(first),
+                &laser.as_scan(second),
                 estimate.alpha,
                 &t,
             )
@@ -109,7 +91,7 @@ fn the_grid_estimate_refined_on_the_beams_is_within_a_tenth_of_a_cell() {
         );
         // Kept: the scale, the column count.
         assert_eq!(fit.translation.columns, t.columns);
-    }
+    });
 }
 
 /// The 270° laser, a full-circle one starting straight ahead (as the

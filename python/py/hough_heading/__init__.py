@@ -689,8 +689,9 @@ def estimate_scans(
     ``cell_m``, ``residual_m``, ``columns``, ``unobservable``, ``dropped``,
     ``beam_check``, ``beam_fit``. ``dtheta_deg``, ``dx_m`` and ``dy_m`` are
     the pose checked and refined on the beams (the tool's defaults:
-    ``beam_check`` says whether the beams contradicted the grid's answer or
-    replaced it by a rival, ``beam_fit`` how many end points the refinement
+    ``beam_check`` says whether the beams contradicted the grid's answer,
+    did not confirm it (``too_weak``) or replaced it by a rival,
+    ``beam_fit`` how many end points the refinement
     matched, or why it ``kept`` the grid's pose);
     :attr:`Estimate.translation_cells` and :attr:`Estimate.scale` give the
     same pose on the grids (cells).
