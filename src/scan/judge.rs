@@ -151,7 +151,7 @@ impl BeamCheck {
     /// The chosen pose scores below [`BEAM_MIN_SCORE`]: whatever the
     /// rivals, the beams do not confirm it.
     pub fn too_weak(&self) -> bool {
-        self.chosen.agreement.score() < Score::from_num(BEAM_MIN_SCORE)
+        self.chosen.agreement.score() < q16_score(BEAM_MIN_SCORE)
     }
 
     /// Flags `estimate` when the beams contradict it or do not confirm it.
@@ -339,7 +339,10 @@ impl Raster {
                 continue;
             };
             let hopeless = chosen.is_some_and(|c| {
-                best_start.agreement.score() + Score::from_num(BEAM_REFINE_REACH)
+                best_start
+                    .agreement
+                    .score()
+                    .saturating_add(q16_score(BEAM_REFINE_REACH))
                     < c.agreement.score()
             });
             if hopeless {
@@ -373,6 +376,13 @@ impl Raster {
             rival,
         })
     }
+}
+
+/// A positive share or score given as `f32` (a constant of this module)
+/// in Q16, rounded to nearest, without the conversion of `from_num` that
+/// may panic.
+const fn q16_score(value: f32) -> Score {
+    Score::from_bits((value * 65536.0 + 0.5) as i32)
 }
 
 /// A rival whose best start scores this much below the chosen pose is not
@@ -497,9 +507,11 @@ fn one_way(
         }
         seen += i64::from(into.seen_through(p, beam, margin));
     });
-    // The mean of 1 − (r/τ)², Q16: below 2¹⁶ + 1.
-    let explained = |count: i64| ((explained << 16) / i128::from(tau_sq * count)) as i64;
-    (count > 0).then(|| (explained(count), (seen << 16) / count))
+    // The mean of 1 − (r/τ)², Q16: at most 2¹⁶.
+    let explained = (explained << 16)
+        .checked_div(i128::from(tau_sq) * i128::from(count))
+        .unwrap_or(0) as i64;
+    (count > 0).then(|| (explained, (seen << 16) / count))
 }
 
 impl Segments<'_> {
