@@ -47,7 +47,9 @@
 //! trails the chosen pose by 0.2 or more is not refined. Cost on
 //! the Cortex-M4F (`examples/real_scans.rs`, `budgets/TABLE.md`): 8.1 M
 //! instructions a real pair (median; 30.6 M at most), about half the
-//! estimate, and 3.4 KiB more stack; on the host about 6 % of a pair.
+//! estimate, and 3.4 KiB more stack; on the host 10–15 % of a pair
+//! (fr079, 400 pairs, one thread: 1.45–1.56 s user without, 1.63–1.77 s
+//! with).
 
 use super::beam::{BeamEnd, ScanBeams};
 use super::refine::{for_each_end, FitPose, Segments};
