@@ -235,7 +235,15 @@ impl Outcome {
 pub fn outcome(estimate: &Estimate, truth: &Transform, half_turn_symmetric: bool) -> Outcome {
     let full = angle_error_deg(estimate.alpha, truth.alpha_rad);
     let axis = axis_error_deg(estimate.alpha, truth.alpha_rad);
-    let error_deg = if half_turn_symmetric { axis } else { full };
+    // The error that counts: modulo 180° for half-turn symmetric scenes.
+    let error_of = |alpha| {
+        if half_turn_symmetric {
+            axis_error_deg(alpha, truth.alpha_rad)
+        } else {
+            angle_error_deg(alpha, truth.alpha_rad)
+        }
+    };
+    let error_deg = error_of(estimate.alpha);
     let wrong_half_turn = !half_turn_symmetric && axis <= GROSS_DEG && full > 90.0;
     let translation_error_px = estimate.translation.map(|t| {
         let dx = t.x.to_num::<f64>() - truth.tx;
@@ -282,14 +290,10 @@ pub fn outcome(estimate: &Estimate, truth: &Transform, half_turn_symmetric: bool
                 .and_then(|c| c.support)
                 .map_or(f64::NAN, |s| s.to_num()),
         ),
-        truth_listed: estimate.candidates.iter().any(|c| {
-            let e = if half_turn_symmetric {
-                axis_error_deg(c.alpha, truth.alpha_rad)
-            } else {
-                angle_error_deg(c.alpha, truth.alpha_rad)
-            };
-            e <= GROSS_DEG
-        }),
+        truth_listed: estimate
+            .candidates
+            .iter()
+            .any(|c| error_of(c.alpha) <= GROSS_DEG),
     }
 }
 

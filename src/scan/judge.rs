@@ -147,7 +147,7 @@ impl BeamCheck {
     /// answer should be the rival's.
     pub fn switches(&self) -> bool {
         self.lead()
-            .is_some_and(|l| l >= Score::from_num(BEAM_SWITCH_LEAD))
+            .is_some_and(|l| l >= q16_score(BEAM_SWITCH_LEAD))
     }
 
     /// The chosen pose scores below [`BEAM_MIN_SCORE`]: whatever the
@@ -347,21 +347,15 @@ impl Raster {
                     .saturating_add(q16_score(BEAM_REFINE_REACH))
                     < c.agreement.score()
             });
-            if hopeless {
-                if rival.is_none_or(|r| best_start.agreement.score() > r.agreement.score()) {
-                    rival = Some(best_start);
-                }
-                continue;
-            }
             let (bx, by) = best_start.translation;
             let start = Pose {
                 x: bx,
                 y: by,
                 ..grid
             };
-            let refined = self
-                .refine_on_beams(reference, current, candidate.alpha, &start)
-                .ok()
+            let refined = (!hopeless)
+                .then(|| self.refine_on_beams(reference, current, candidate.alpha, &start))
+                .and_then(Result::ok)
                 .and_then(|f| score(f.alpha, (f.translation.x, f.translation.y)));
             let scored = match refined {
                 Some(r) if r.agreement.score() >= best_start.agreement.score() => r,
@@ -552,6 +546,6 @@ impl Segments<'_> {
         }
         let nearest = nearest_sq.isqrt() as i64;
         let limit = nearest - nearest / 32 - margin;
-        limit > 0 && dx * dx + dy * dy < limit * limit
+        limit > 0 && distance_sq < (limit * limit) as u64
     }
 }
