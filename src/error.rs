@@ -29,6 +29,14 @@ pub enum Error {
     },
     /// A scale range outside `0.5 ≤ min ≤ max ≤ 2`.
     InvalidScaleRange,
+    /// A scan with more readings than a stored scan reference of this type
+    /// holds ([`ScanReference`](crate::ScanReference)'s `BEAMS`).
+    TooManyBeams {
+        /// Readings of the scan.
+        beams: usize,
+        /// Readings the type holds.
+        capacity: usize,
+    },
 }
 
 impl core::fmt::Display for Error {
@@ -46,6 +54,10 @@ impl core::fmt::Display for Error {
                 "reference bytes are format {found}, this library reads format {expected}: prepare and store the reference again"
             ),
             Error::InvalidScaleRange => write!(f, "scale range must satisfy 0.5 ≤ min ≤ max ≤ 2"),
+            Error::TooManyBeams { beams, capacity } => write!(
+                f,
+                "a scan of {beams} readings does not fit a scan reference of {capacity}"
+            ),
         }
     }
 }

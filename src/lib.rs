@@ -224,16 +224,19 @@ macro_rules! reference {
     };
 }
 
-/// The [`ScanReference`] type matching `estimator!(W, H, N_THETA)`.
+/// The [`ScanReference`] type matching `estimator!(W, H, N_THETA)` that
+/// stores a scan of up to `BEAMS` readings (e.g. 1081 for a 270° scanner at
+/// ¼°): `scan_reference!(W, H, N_THETA, BEAMS)`.
 #[macro_export]
 macro_rules! scan_reference {
-    ($w:expr, $h:expr, $n:expr) => {
+    ($w:expr, $h:expr, $n:expr, $beams:expr) => {
         $crate::ScanReference<
             { $w },
             { $h },
             { $crate::config::row_words($w) },
             { $crate::config::half_turn_steps($n) },
             { $crate::config::rho_bins($w, $h) },
+            { $beams },
         >
     };
 }

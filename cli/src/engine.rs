@@ -88,10 +88,22 @@ pub trait Engine: Send {
     /// Accumulators, signatures and correlation of the two grids (for plots).
     fn figures(&self, mode: Mode) -> Figures;
     /// The bytes of `view` as a stored scan reference (`ScanReference`, the
-    /// improved mode's reference with the view's free space and `raster`);
-    /// `None` unless the view was rasterized from a scan.
-    fn scan_reference(&mut self, view: View, raster: &Raster) -> Option<Vec<u8>>;
+    /// improved mode's reference with the view's free space, `raster` and
+    /// `scan`, the scan the view was rasterized from: at most
+    /// [`STORED_BEAMS`] readings). An error unless the view was rasterized
+    /// from a scan, or when the scan has too many readings.
+    fn scan_reference(
+        &mut self,
+        view: View,
+        raster: &Raster,
+        scan: &Scan<'_>,
+    ) -> Result<Vec<u8>, String>;
 }
+
+/// The most readings of a scan the tool stores in a scan reference (a
+/// firmware reads the bytes with its own capacity, at least the scan's
+/// readings).
+pub const STORED_BEAMS: usize = 4096;
 
 struct Config<
     const W: usize,
@@ -152,13 +164,22 @@ impl<
         self.use_free = on;
     }
 
-    fn scan_reference(&mut self, view: View, raster: &Raster) -> Option<Vec<u8>> {
-        let free = self.free[view.index()].clone()?;
+    fn scan_reference(
+        &mut self,
+        view: View,
+        raster: &Raster,
+        scan: &Scan<'_>,
+    ) -> Result<Vec<u8>, String> {
+        let free = self.free[view.index()]
+            .clone()
+            .ok_or("the view was not rasterized from a scan")?;
         let reference = self.improved.reference(&self.grids[view.index()]);
-        let stored = ScanReference::new(reference, free, *raster);
-        let mut bytes = vec![0; ScanReference::<W, H, RW, HALF, RHO>::BYTES];
-        stored.to_bytes(&mut bytes).ok()?;
-        Some(bytes)
+        let stored =
+            ScanReference::<W, H, RW, HALF, RHO, STORED_BEAMS>::new(reference, free, *raster, scan)
+                .map_err(|e| e.to_string())?;
+        let mut bytes = vec![0; stored.byte_len()];
+        stored.to_bytes(&mut bytes).map_err(|e| e.to_string())?;
+        Ok(bytes)
     }
 
     fn rasterize(&mut self, view: View, scan: &Scan<'_>, raster: &Raster) -> ScanStats {

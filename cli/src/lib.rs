@@ -90,7 +90,8 @@ pub enum Command {
     /// one `ROBOTLASER1` line per revolution.
     Wire(wire::WireArgs),
     /// One scan of a pair file as a stored scan reference for the firmware
-    /// (`ScanReference` bytes: the reference, its free space and raster).
+    /// (`ScanReference` bytes: the reference, its free space, raster and
+    /// scan).
     Reference(stored::StoredArgs),
 }
 

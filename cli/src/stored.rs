@@ -1,6 +1,7 @@
 //! `reference`: one scan of a pair file as the bytes a firmware stores (a
-//! `ScanReference`: the reference, its free space and its raster), to be
-//! read with `ScanReference::from_bytes` (a `const fn`: a `static` in flash).
+//! `ScanReference`: the reference, its free space, its raster and the scan
+//! itself), to be read with `ScanReference::from_bytes` (a `const fn`: a
+//! `static` in flash) for a capacity of at least the scan's readings.
 
 use std::path::PathBuf;
 
@@ -90,19 +91,22 @@ pub fn run(args: &StoredArgs) -> Result<(), Fatal> {
         .ok_or_else(|| Fatal::usage("the cell size must be finite and positive"))?;
     let stats = engine.rasterize(View::First, &scan, &raster);
     let bytes = engine
-        .scan_reference(View::First, &raster)
-        .ok_or_else(|| Fatal::io("the scan reference could not be written"))?;
+        .scan_reference(View::First, &raster, &scan)
+        .map_err(|e| Fatal::io(format!("the scan reference could not be written: {e}")))?;
     std::fs::write(&args.out, &bytes)
         .map_err(|e| Fatal::io(format!("{}: {e}", args.out.display())))?;
     eprintln!(
         "{}: scan reference format {SCAN_REFERENCE_FORMAT}, {} bytes, {size}² cells of {:.4} m, \
-         N_θ = {}, {} of {} beams kept ({} line {}, scan {})",
+         N_θ = {}, {} of {} beams kept, {} readings stored (read it with BEAMS ≥ {}) \
+         ({} line {}, scan {})",
         args.out.display(),
         bytes.len(),
         raster.cell(),
         args.n_theta,
         stats.kept,
         stats.beams,
+        ranges.len(),
+        ranges.len(),
         args.scans.display(),
         args.line,
         args.scan

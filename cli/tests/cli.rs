@@ -374,14 +374,15 @@ fn a_closed_output_pipe_is_not_a_panic() {
 }
 
 /// `reference` writes one scan of a pair as the bytes a firmware stores:
-/// read back by the library, they are the reference, free space and raster
-/// the library prepares from the same scan on its own, and an estimate of
-/// the pair's other scan against them is the pair's ground truth.
+/// read back by the library, they are the reference, free space, raster and
+/// scan the library prepares from the same scan on its own, an estimate of
+/// the pair's other scan against them is the pair's ground truth, and the
+/// stored scan confirms it on the beams.
 #[test]
 fn reference_writes_a_scan_reference_the_library_reads() {
     use hough_heading::{estimator, grid, scan_reference, Raster};
     use hough_heading_cli::scans::{PairRecord, Truth};
-    type Stored = scan_reference!(128, 128, 360);
+    type Stored = scan_reference!(128, 128, 360, 2048);
     let pairs = data_dir().join("scans.jsonl");
     let out = scratch("reference").join("dock.hhs");
     let o = tool(&[
@@ -415,12 +416,20 @@ fn reference_writes_a_scan_reference_the_library_reads() {
     };
     let mut e = <estimator!(128, 128, 360)>::new(Mode::Improved);
     let (g1, f1) = draw(&s1);
-    assert_eq!(stored, Stored::new(e.reference(&g1), f1, raster));
+    assert_eq!(
+        stored,
+        Stored::new(e.reference(&g1), f1, raster, &s1).unwrap()
+    );
+    assert_eq!(bytes.len(), stored.byte_len());
     let (g2, f2) = draw(&s2);
     let estimate = e.estimate_scans(stored.reference(), &g2, &stored.free_space(&f2), None);
     let motion = raster.motion(estimate.alpha, estimate.translation.as_ref());
     let error = wrap_deg(f64::from(motion.dtheta).to_degrees() - truth.dtheta.to_degrees());
     assert!(error.abs() < 2.0, "{error}° off: {estimate:?}");
+    let check = raster.check_on_beams(&stored.scan(), &s2, &estimate);
+    assert_eq!(check, raster.check_on_beams(&s1, &s2, &estimate));
+    let check = check.unwrap();
+    assert!(!check.too_weak() && !check.contradicts(), "{check:?}");
     // A line the file does not have, and a third scan: clear errors.
     let missing = tool(&[
         "reference",

@@ -324,18 +324,18 @@ fn fuzz_scan_reference_from_bytes() {
     const HALF: usize = 64;
     const RHO: usize = rho_bins(64, 64);
     type R = Reference<64, 64, 2, HALF, RHO>;
-    type S = ScanReference<64, 64, 2, HALF, RHO>;
+    type S = ScanReference<64, 64, 2, HALF, RHO, 16>;
     type E = Estimator<64, 64, 2, 128, HALF, RHO, { hough_heading::config::pyramid_words(64, 64) }>;
     fuzz(
         "ScanReference::from_bytes arbitrary",
         20_000,
         12,
-        proptest::collection::vec(any::<u8>(), 0..S::BYTES + 64),
+        proptest::collection::vec(any::<u8>(), 0..S::MAX_BYTES + 64),
         |bytes| {
             match S::from_bytes(&bytes) {
-                Ok(_) => prop_assert!(bytes.len() >= S::BYTES),
+                Ok(stored) => prop_assert!(bytes.len() >= stored.byte_len()),
                 Err(hough_heading::Error::BufferTooSmall { needed }) => {
-                    prop_assert!(bytes.len() < needed && needed == S::BYTES)
+                    prop_assert!(bytes.len() < needed)
                 }
                 Err(_) => {}
             }
@@ -352,9 +352,18 @@ fn fuzz_scan_reference_from_bytes() {
         g.set(5, i).unwrap();
         free.set(i, 30).unwrap();
     }
-    let mut valid = vec![0u8; S::BYTES];
+    let mut valid = vec![0u8; S::MAX_BYTES];
     let raster = Raster::with_cell(0.05).unwrap().connect(0.3);
-    S::new(e.reference(&g), free, raster)
+    let ranges: Vec<f32> = (0..16).map(|i| 0.5 + 0.1 * i as f32).collect();
+    let scan = Scan {
+        ranges: &ranges,
+        angle_min: -1.5,
+        angle_increment: 0.2,
+        max_range: 3.0,
+        offset: SensorOffset::default(),
+    };
+    S::new(e.reference(&g), free, raster, &scan)
+        .unwrap()
         .to_bytes(&mut valid)
         .unwrap();
     let accepted = std::cell::Cell::new(0u32);
@@ -363,7 +372,7 @@ fn fuzz_scan_reference_from_bytes() {
         4000,
         13,
         (
-            proptest::collection::vec((0..S::BYTES - 4, any::<u8>()), 1..12),
+            proptest::collection::vec((0..S::MAX_BYTES - 4, any::<u8>()), 1..12),
             grid_cells::<64, 64, 2>(),
             grid_cells::<64, 64, 2>(),
         ),
@@ -375,22 +384,23 @@ fn fuzz_scan_reference_from_bytes() {
             let inner = 4 + R::BYTES - 4;
             let sum = fnv1a(&bytes[4..inner]);
             bytes[inner..inner + 4].copy_from_slice(&sum.to_le_bytes());
-            let sum = fnv1a(&bytes[..S::BYTES - 4]);
-            bytes[S::BYTES - 4..].copy_from_slice(&sum.to_le_bytes());
+            let sum = fnv1a(&bytes[..S::MAX_BYTES - 4]);
+            bytes[S::MAX_BYTES - 4..].copy_from_slice(&sum.to_le_bytes());
             if let Ok(stored) = S::from_bytes(&bytes) {
                 accepted.set(accepted.get() + 1);
-                let mut out = vec![0u8; S::BYTES];
-                prop_assert_eq!(stored.to_bytes(&mut out), Ok(S::BYTES));
+                let mut out = vec![0u8; S::MAX_BYTES];
+                prop_assert_eq!(stored.to_bytes(&mut out), Ok(S::MAX_BYTES));
                 // Byte for byte: every byte is checked on reading (the
                 // reference's reserved header bytes must be zero).
                 prop_assert_eq!(&out, &bytes);
                 let mut e = E::new(Mode::Improved);
-                check(
-                    &e.estimate_scans(stored.reference(), &grid, &stored.free_space(&free), None),
-                    false,
-                    None,
-                    Some(true),
-                )?;
+                let estimate =
+                    e.estimate_scans(stored.reference(), &grid, &stored.free_space(&free), None);
+                check(&estimate, false, None, Some(true))?;
+                // The stored scan, whatever its readings and geometry, can
+                // check the estimate (here against itself).
+                let scan = stored.scan();
+                let _ = stored.raster().check_on_beams(&scan, &scan, &estimate);
             }
             Ok(())
         },

@@ -213,15 +213,25 @@ fn entry_reference_bytes<
             .with_verification(opaque(true));
         opaque(e.estimate(&reference, grid));
     }
-    // The same bytes as a scan reference (free space stored with it).
-    if let Ok(stored) = ScanReference::<W, H, RW, HALF, RHO>::from_bytes(bytes) {
+    // The same bytes as a scan reference (free space and scan stored with
+    // it), its scan checking an estimate against itself.
+    if let Ok(stored) = ScanReference::<W, H, RW, HALF, RHO, 16>::from_bytes(bytes) {
         opaque(stored.raster());
+        opaque(stored.byte_len());
         let mut out = opaque([0u8; 64]);
         let len = opaque(0usize).min(out.len());
         let _ = opaque(stored.to_bytes(out.get_mut(..len).unwrap_or(&mut [])));
         let mut e = Estimator::<W, H, RW, N, HALF, RHO, PW>::new(opaque_mode())
             .with_verification(opaque(true));
-        opaque(e.estimate_scans(stored.reference(), grid, &stored.free_space(grid), None));
+        let estimate = e.estimate_scans(stored.reference(), grid, &stored.free_space(grid), None);
+        let scan = stored.scan();
+        opaque(stored.raster().check_on_beams(&scan, &scan, &estimate));
+        let _ = opaque(ScanReference::<W, H, RW, HALF, RHO, 8>::new(
+            stored.reference().clone(),
+            stored.free().clone(),
+            stored.raster(),
+            &scan,
+        ));
     }
     match Reference::<W, H, RW, HALF, RHO>::from_bytes(version_2) {
         Err(Error::ReferenceVersion { found, expected }) => {
