@@ -192,7 +192,9 @@ impl<
         let out = out
             .get_mut(..needed)
             .ok_or(Error::BufferTooSmall { needed })?;
-        let (head, rest) = out.split_at_mut(MAGIC.len());
+        let (head, rest) = out
+            .split_at_mut_checked(MAGIC.len())
+            .ok_or(Error::BufferTooSmall { needed })?;
         head.copy_from_slice(&MAGIC);
         let written = self
             .reference
