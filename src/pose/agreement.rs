@@ -13,7 +13,7 @@
 //!   current view at `p₂ = s·R(α)·(p₁ − u)` (`u` in centred reference cells,
 //!   `s` the scale);
 //! - each point scores 2 on an occupied cell, 1 next to one (8 neighbours),
-//!   0 otherwise ([`point_score`]); it is *near* when it scores at least 1;
+//!   0 otherwise ([`point_score`]);
 //! - with the views' free space ([`FreeSpace`]), a point scoring 0 on a cell
 //!   the other view's beams crossed is a *violation*: a wall where the other
 //!   sensor saw through.
@@ -42,8 +42,6 @@ pub(crate) struct Tally {
     pub(crate) points: u16,
     /// Σ point scores (0, 1 or 2 each).
     pub(crate) score: u16,
-    /// Points within one cell of the other view's occupied cells.
-    pub(crate) near: u16,
     /// Points scoring 0 on a cell the other view's beams crossed.
     pub(crate) violations: u16,
 }
@@ -140,9 +138,7 @@ fn tally<const W: usize, const H: usize, const RW: usize>(
         let score = point_score(target, c, r);
         t.points = t.points.saturating_add(1);
         t.score = t.score.saturating_add(score as u16);
-        if score > 0 {
-            t.near = t.near.saturating_add(1);
-        } else if let Some(free) = target_free {
+        if let (0, Some(free)) = (score, target_free) {
             if c >= 0 && r >= 0 && free.get(c as usize, r as usize) {
                 t.violations = t.violations.saturating_add(1);
             }
