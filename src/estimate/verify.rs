@@ -202,7 +202,8 @@ impl<
                     continue;
                 }
                 aligner.set_inv_scale(inverse(seed.scale_q16));
-                seed.placement = angle_search::<W, H, RW, N, PW>(&mut aligner, &seed.placement);
+                seed.placement =
+                    angle_search::<W, H, RW, N, PW>(&mut aligner, &seed.placement, max_shift);
             }
             // 3. Every seed judged both ways on the large sample.
             for seed in seeds.iter_mut() {
@@ -492,24 +493,28 @@ const ANGLE_SEARCH_SEEDS: usize = SEEDS;
 /// the shift predicted from the seed.
 const LOCAL_RADIUS: i32 = 3;
 
-/// Searches rotations within ±5° of `seed` (the candidates' separation: a
-/// seed that moved farther would be another candidate): up to ±5° in
-/// strides of about 2° (±4° at `N` = 360), then halving the stride around
-/// the best down to one θ step (so about 5° away at most); each rotation gets the best shift within
-/// ±[`LOCAL_RADIUS`] of the one predicted from the seed. Returns the pose
-/// (the seed's unless a rotation beats it by 3 %) with the best score found
-/// at any rotation.
+/// Searches rotations within about ±5° of `seed` (the candidates'
+/// separation: a seed that moved farther would be another candidate): in
+/// strides of about 2° up to ±5° (±4° at `N` = 360), then halving the
+/// stride around the best down to one θ step; each rotation gets the best
+/// shift within ±[`LOCAL_RADIUS`] of the one predicted from the seed.
+/// Returns the pose (the seed's unless a rotation beats it by 3 %; a pose
+/// that moved then gets its rotation's best shift over the whole window,
+/// ±`max_shift`, as every seed has) with the best score found at any
+/// rotation.
 ///
 /// The reach was ±10° until the alignment's noise showed: where the views
 /// align poorly everywhere (a second view at an unmodelled scale, harsh
 /// damage) the seed drifted 5–10° to a rotation that aligned a little
 /// better by chance (synthetic polygons 128², scale 0.9–1.1 not searched:
-/// 8 of the 10 wrong confident answers). With this reach (`cargo run
-/// --release -p host-tests --bin accuracy`) that row gives 0.3 % wrong
-/// among unflagged (was 1.4 %), the 64² harsh rows 5.8 % (polygons, was
-/// 9.7 %) and 6.5 % (Manhattan, was 11.3 %), no row worse beyond noise; on
-/// the shared real pairs the same 47 wrong among unflagged; half the
-/// rotations are searched.
+/// 8 of the 10 wrong confident answers). With this reach and the final
+/// whole-window search (`cargo run --release -p host-tests --bin accuracy`;
+/// `bash tools/confidence.sh` for the shared real pairs) that row gives
+/// 0.3 % wrong among unflagged (was 1.4 %; failures 8.4 → 6.1 %), the 64²
+/// harsh rows 5.8 % (polygons, was 9.7 %) and 6.5 % (Manhattan, was
+/// 11.3 %), no row worse beyond noise; the shared real pairs (256²) 42
+/// wrong among unflagged of 4 730 (was 47). Half the rotations are
+/// searched.
 fn angle_search<
     const W: usize,
     const H: usize,
@@ -519,6 +524,7 @@ fn angle_search<
 >(
     aligner: &mut Aligner<'_, W, H, RW, PW>,
     seed: &Placement,
+    max_shift: i32,
 ) -> Placement {
     let step = |k: i64| Angle::from_steps_q16(k << 16, N);
     let mut stride = (N / 180).max(1) as i64; // 2°
@@ -561,6 +567,17 @@ fn angle_search<
         let centre = best.alpha;
         for k in [-stride, stride] {
             try_at(aligner, &mut best, centre + step(k));
+        }
+    }
+    // A pose that moved has the best shift near the predicted one; its
+    // rotation's best over the whole window may lie elsewhere (another
+    // wall's match): searched above what it has, it is then the rotation's
+    // best translation, as every seed's is.
+    if best.alpha != seed.alpha {
+        aligner.rotate::<N>(best.alpha, (0, 0));
+        if let Some((shift, score)) = aligner.search((0, 0), max_shift, best.score) {
+            best.shift = shift;
+            best.score = score;
         }
     }
     Placement {
