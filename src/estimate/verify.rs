@@ -527,9 +527,9 @@ fn angle_search<
     max_shift: i32,
 ) -> Placement {
     let step = |k: i64| Angle::from_steps_q16(k << 16, N);
-    let mut stride = (N / 180).max(1) as i64; // 2°
-                                              // 5° in whole steps, down to a whole number of strides (N = 360: 4°;
-                                              // the halving strides reach the rest).
+    // Strides of 2°; the reach is 5° in whole steps, down to a whole number
+    // of strides (N = 360: 4°; the halving strides reach the rest).
+    let mut stride = (N / 180).max(1) as i64;
     let reach = (((5 * N + 180) / 360) as i64 / stride * stride).max(1);
     let mut best = *seed;
     // The pose moves only when a rotation beats the seed by a margin:
