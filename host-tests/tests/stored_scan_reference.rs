@@ -166,10 +166,7 @@ fn a_scan_longer_than_the_type_holds_is_refused() {
     let (_, stored, bytes) = stored();
     let mut longer = readings(HOME);
     longer.push(1.0);
-    let scan = Scan {
-        ranges: &longer,
-        ..scan_of(&longer)
-    };
+    let scan = scan_of(&longer);
     assert_eq!(
         Stored::new(
             stored.reference().clone(),
