@@ -84,7 +84,17 @@ impl<
     /// The most bytes [`Self::to_bytes`] writes: a scan of `BEAMS` readings
     /// (a buffer this long holds any scan reference of this type). 128²,
     /// `N_THETA` = 360: `5 924 + 4·BEAMS` bytes.
-    pub const MAX_BYTES: usize = Self::HEAD_BYTES + 4 * BEAMS + 4;
+    pub const MAX_BYTES: usize = Self::bytes_for(BEAMS);
+
+    /// Bytes of the stored form of a scan of `readings` readings: the head,
+    /// four bytes a reading and the checksum (`usize::MAX` past `usize`: a
+    /// count read from untrusted bytes).
+    const fn bytes_for(readings: usize) -> usize {
+        match readings.checked_mul(4) {
+            Some(bytes) => bytes.saturating_add(Self::HEAD_BYTES + 4),
+            None => usize::MAX,
+        }
+    }
 
     /// The reference of a scan's occupied cells and the free space of the
     /// same scan, both drawn with `raster`, and the scan (copied).
@@ -170,7 +180,7 @@ impl<
     /// Bytes [`Self::to_bytes`] writes for this scan reference:
     /// `MAX_BYTES − 4·(BEAMS − beams)`.
     pub const fn byte_len(&self) -> usize {
-        Self::HEAD_BYTES + 4 * self.beams + 4
+        Self::bytes_for(self.beams)
     }
 
     /// Writes the scan reference as [`Self::byte_len`] bytes
@@ -266,11 +276,7 @@ impl<
         // The stored count, read before the envelope to know where the
         // checksum is; a count beyond the bytes makes them too short.
         let stored = le_u32(bytes, Self::HEAD_BYTES - 4) as usize;
-        let len = match stored.checked_mul(4) {
-            Some(readings) => readings.saturating_add(Self::HEAD_BYTES + 4),
-            None => usize::MAX,
-        };
-        if let Err(e) = check_envelope(bytes, MAGIC, len) {
+        if let Err(e) = check_envelope(bytes, MAGIC, Self::bytes_for(stored)) {
             return Err(e);
         }
         if stored > BEAMS {
