@@ -8,6 +8,7 @@ use crate::config::max_votes_per_bin;
 use crate::correlation::circular_distance;
 use crate::error::Error;
 use crate::grid::Grid;
+use crate::pose::reach::ReachTables;
 use crate::signature::{PeakKind, Signature};
 
 mod scan;
@@ -55,6 +56,10 @@ pub struct Reference<
     pub(crate) count: u8,
     pub(crate) occupied: u32,
     pub(crate) grid: Grid<W, H, RW>,
+    /// The grid's reach tables for the verification (feature
+    /// `reach-tables`; derived from `grid`, not stored in the bytes).
+    #[cfg(feature = "reach-tables")]
+    pub(crate) reach: ReachTables<W, H, RW>,
 }
 
 /// Magic and format version of the stored bytes ("HHR" + version).
@@ -107,12 +112,22 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
             count: count as u8,
             occupied: grid.occupied(),
             grid: grid.clone(),
+            #[cfg(feature = "reach-tables")]
+            reach: ReachTables::of(grid),
         }
     }
 
     /// The reference grid itself, kept for the verification by alignment.
     pub const fn grid(&self) -> &Grid<W, H, RW> {
         &self.grid
+    }
+
+    /// The grid's reach tables, with the feature `reach-tables`.
+    pub(crate) const fn reach(&self) -> Option<&ReachTables<W, H, RW>> {
+        #[cfg(feature = "reach-tables")]
+        return Some(&self.reach);
+        #[cfg(not(feature = "reach-tables"))]
+        None
     }
 
     /// The signature `D`, `S` of the reference.
@@ -277,6 +292,8 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
             profiles,
             count: count as u8,
             occupied,
+            #[cfg(feature = "reach-tables")]
+            reach: ReachTables::of(&grid),
             grid,
         })
     }

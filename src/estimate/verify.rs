@@ -125,6 +125,7 @@ impl<
             let mut aligner = Aligner::new(
                 reference.grid(),
                 &pyramid,
+                reference.reach(),
                 grid,
                 free_penalty,
                 inverse(scales[0]),

@@ -5,6 +5,8 @@
 //! * [`translation`]: the least-squares translation from column shifts;
 //! * [`scale`]: the bounded 1-D scale search;
 //! * [`pyramid`]: the OR-pooled reference pyramid;
+//! * [`reach`]: per-level reach tables of the reference (feature
+//!   `reach-tables`);
 //! * [`search`]: the alignment score and the exact best translation;
 //! * [`icp`]: the sub-cell, sub-step refinement;
 //! * [`agreement`]: a pose judged both ways on a large sample, with the
@@ -13,6 +15,7 @@
 pub(crate) mod agreement;
 pub(crate) mod icp;
 pub(crate) mod pyramid;
+pub(crate) mod reach;
 pub(crate) mod scale;
 pub(crate) mod search;
 pub(crate) mod translation;

@@ -15,8 +15,11 @@ use crate::qemu::{self, field, number, Plugin};
 use crate::report::{Paths, Target};
 use crate::{elf, Error};
 
-/// Key of the real-scan entry in the budget file.
-pub const KEY: &str = "real-scans/128x128/360";
+/// Key of the real-scan entry in the budget file, for the library built
+/// with `features`.
+pub fn key(features: &str) -> String {
+    format!("real-scans/128x128/360{}", crate::report::suffix(features))
+}
 
 /// Regions per pair.
 const REGIONS: usize = 7;
@@ -30,9 +33,10 @@ const TIMEOUT: std::time::Duration = std::time::Duration::from_secs(600);
 pub fn measure(
     paths: &Paths,
     target: &Target,
+    features: &str,
 ) -> Result<Result<Map<String, Value>, String>, Error> {
     let machine = target.machine.ok_or("not runnable")?;
-    let path = crate::report::build_example(paths, target, "real_scans", None)?;
+    let path = crate::report::build_example(paths, target, "real_scans", None, features)?;
     let image = elf::read(&path)?;
     let plugin = Plugin {
         library: paths.plugin.clone(),
@@ -165,7 +169,7 @@ pub const HEADER: [&str; 15] = [
 ];
 
 /// One row of the real-scan table.
-pub fn row(target: &Target, v: &Map<String, Value>) -> Vec<String> {
+pub fn row(target: &Target, features: &str, v: &Map<String, Value>) -> Vec<String> {
     let int = |k: &str| v.get(k).and_then(Value::as_u64);
     let count = |k: &str| int(k).map_or("–".into(), crate::report::group);
     let per_beam = v
@@ -176,8 +180,12 @@ pub fn row(target: &Target, v: &Map<String, Value>) -> Vec<String> {
         (Some(ram), Some(s), Some(stack)) => format!("{ram} B ({s} + {stack})"),
         _ => "–".into(),
     };
+    let name = match features {
+        "" => target.name.to_string(),
+        features => format!("{}, {features}", target.name),
+    };
     vec![
-        target.name.to_string(),
+        name,
         count("pairs"),
         count("real_pair_median"),
         count("real_pair_max"),

@@ -101,14 +101,41 @@ pub struct Config {
     pub n_theta: usize,
     /// `"360"`, or the paper's range: `"min"` / `"max"`.
     pub choice: &'static str,
+    /// Library features the bench is built with (`""`: the default).
+    pub features: &'static str,
 }
 
 impl Config {
     /// The key in the budget file.
     fn key(&self) -> String {
-        format!("{0}x{0}/{1}", self.side, self.n_theta)
+        format!(
+            "{0}x{0}/{1}{2}",
+            self.side,
+            self.n_theta,
+            suffix(self.features)
+        )
+    }
+
+    /// The grid cell of the tables: the side, and the features if any.
+    fn grid(&self) -> String {
+        match self.features {
+            "" => format!("{}²", self.side),
+            features => format!("{}², {features}", self.side),
+        }
     }
 }
+
+/// The key suffix of a feature set: `""`, or `+features`.
+pub fn suffix(features: &str) -> String {
+    match features {
+        "" => String::new(),
+        features => format!("+{features}"),
+    }
+}
+
+/// Features measured besides the default, at 128² and N_θ = 360: the
+/// reference's reach tables (`reach-tables`).
+pub const EXTRA_FEATURES: &str = "reach-tables";
 
 /// The configurations: each side with `N_THETA` = 360 and the two ends of the
 /// paper's recommended range (`hough_heading::config::recommended_n_theta`; the upper
@@ -128,10 +155,17 @@ pub fn configs(only: Option<&str>) -> Vec<Config> {
                     side,
                     n_theta,
                     choice,
+                    features: "",
                 });
             }
         }
     }
+    out.push(Config {
+        side: 128,
+        n_theta: 360,
+        choice: "360",
+        features: EXTRA_FEATURES,
+    });
     out.retain(|c| only.is_none_or(|key| c.key() == key));
     out
 }
@@ -147,16 +181,24 @@ pub struct Paths {
 /// Builds the bench example for `target` and returns a copy of its ELF under
 /// `target/budgets/`.
 fn build(paths: &Paths, target: &Target, config: Option<&Config>) -> Result<PathBuf, Error> {
-    build_example(paths, target, "bench", config)
+    build_example(
+        paths,
+        target,
+        "bench",
+        config,
+        config.map_or("", |c| c.features),
+    )
 }
 
-/// Builds `example` for `target` (the bench with `config`'s environment) and
-/// returns a copy of its ELF under `target/budgets/`.
+/// Builds `example` for `target` (the bench with `config`'s environment)
+/// with the library's `features` and returns a copy of its ELF under
+/// `target/budgets/`.
 pub fn build_example(
     paths: &Paths,
     target: &Target,
     example: &str,
     config: Option<&Config>,
+    features: &str,
 ) -> Result<PathBuf, Error> {
     let mut command = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
     command
@@ -170,14 +212,17 @@ pub fn build_example(
             "--message-format=json",
         ])
         .args(["--target", target.triple]);
+    if !features.is_empty() {
+        command.args(["--features", features]);
+    }
     let name = match config {
-        _ if example != "bench" => format!("{example}.elf"),
+        _ if example != "bench" => format!("{example}{}.elf", suffix(features)),
         Some(c) => {
             command
                 .env("HH_BENCH_SIDE", c.side.to_string())
                 .env("HH_BENCH_N_THETA", c.n_theta.to_string())
                 .env("HH_BENCH_BASELINE", "0");
-            format!("bench-{}-{}.elf", c.side, c.n_theta)
+            format!("bench-{}-{}{}.elf", c.side, c.n_theta, suffix(features))
         }
         None => {
             command.env("HH_BENCH_BASELINE", "1");
@@ -494,16 +539,22 @@ pub fn measure(paths: &Paths, only: Option<&str>) -> Result<Measured, Error> {
             }
             entries.insert(config.key(), Value::Object(values));
         }
-        // The real scan pairs (`examples/real_scans.rs`).
-        if target.machine.is_some() && only.is_none_or(|key| key == real::KEY) {
-            match real::measure(paths, target)? {
+        // The real scan pairs (`examples/real_scans.rs`); with the reach
+        // tables only where RAM holds them in each reference.
+        for features in ["", EXTRA_FEATURES] {
+            let key = real::key(features);
+            let runnable =
+                target.machine.is_some() && (features.is_empty() || target.ram >= 1 << 20);
+            let wanted = only.is_none_or(|only| only == key);
+            if !runnable || !wanted {
+                continue;
+            }
+            match real::measure(paths, target, features)? {
                 Ok(values) => {
-                    real_rows.push(real::row(target, &values));
-                    entries.insert(real::KEY.into(), Value::Object(values));
+                    real_rows.push(real::row(target, features, &values));
+                    entries.insert(key, Value::Object(values));
                 }
-                Err(failure) => {
-                    failures.push(format!("{} {}: {failure}", target.triple, real::KEY))
-                }
+                Err(failure) => failures.push(format!("{} {key}: {failure}", target.triple)),
             }
         }
         targets.insert(target.triple.into(), Value::Object(entries));
@@ -538,7 +589,7 @@ fn row(target: &Target, config: &Config, v: &Map<String, Value>) -> Vec<String> 
         "360" => "360".to_string(),
         choice => format!("{} ({choice})", config.n_theta),
     };
-    let mut cells = vec![target.name.to_string(), format!("{0}²", config.side), n];
+    let mut cells = vec![target.name.to_string(), config.grid(), n];
     if v.get("fits") == Some(&Value::Bool(false)) {
         let state = int("state").unwrap_or(0);
         let note = format!(
@@ -594,7 +645,7 @@ fn verification_row(target: &Target, config: &Config, v: &Map<String, Value>) ->
         "360" => "360".to_string(),
         choice => format!("{} ({choice})", config.n_theta),
     };
-    let mut cells = vec![target.name.to_string(), format!("{0}²", config.side), n];
+    let mut cells = vec![target.name.to_string(), config.grid(), n];
     if v.get("fits") == Some(&Value::Bool(false)) {
         let state = int("state").unwrap_or(0);
         cells.push(format!(
