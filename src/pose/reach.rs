@@ -26,12 +26,12 @@ pub(crate) struct ReachTables<const W: usize, const H: usize, const RW: usize> {
     levels: [Grid<W, H, RW>; TABLE_LEVELS],
 }
 
+// Built and read only with the feature (a `Reference` keeps them); the
+// tests check them either way.
+#[cfg_attr(not(feature = "reach-tables"), allow(dead_code))]
 impl<const W: usize, const H: usize, const RW: usize> ReachTables<W, H, RW> {
     /// The tables of `grid`: `≈ 2 · 38 · RW · H` word operations (a `const
     /// fn`, so a reference parsed at compile time carries them in flash).
-    // Built only with the feature (a `Reference` keeps them); the tests
-    // check them either way.
-    #[cfg_attr(not(feature = "reach-tables"), allow(dead_code))]
     pub(crate) const fn of(grid: &Grid<W, H, RW>) -> Self {
         let rows = grid.words();
         let mut levels = [const { Grid::new() }; TABLE_LEVELS];

@@ -46,7 +46,9 @@ pub(crate) struct Placement {
 pub(crate) struct Aligner<'a, const W: usize, const H: usize, const RW: usize, const PW: usize> {
     reference: &'a Grid<W, H, RW>,
     pyramid: &'a Pyramid<W, H, PW>,
-    /// The reference's reach tables, when it keeps them.
+    /// The reference's reach tables, when it keeps them (read only with
+    /// the feature `reach-tables`).
+    #[cfg_attr(not(feature = "reach-tables"), allow(dead_code))]
     reach: Option<&'a ReachTables<W, H, RW>>,
     view: &'a Grid<W, H, RW>,
     /// The reference's free space (scans) and what a point scoring 0 on it
@@ -335,6 +337,9 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
         let side = 1i32 << k;
         let (a, b) = (i32::from(c) + c0 - 1, i32::from(r) + r0 - 1);
         if k <= EXACT_LEVELS {
+            // Compiled only with the feature: without it the test costs the
+            // rows' path 2 % (M4F, budget scene).
+            #[cfg(feature = "reach-tables")]
             if let Some(hit) = self.reach.and_then(|t| t.reaches(k, a, b)) {
                 return hit;
             }
@@ -560,7 +565,8 @@ fn clamp_i16(v: i64) -> i16 {
     v.clamp(i64::from(i16::MIN), i64::from(i16::MAX)) as i16
 }
 
-#[cfg(test)]
+/// With the feature only: without it the aligner reads no table.
+#[cfg(all(test, feature = "reach-tables"))]
 mod tests {
     use super::*;
     use crate::config::pyramid_words;
