@@ -30,46 +30,35 @@ pub(crate) struct ReachTables<const W: usize, const H: usize, const RW: usize> {
 // tests check them either way.
 #[cfg_attr(not(feature = "reach-tables"), allow(dead_code))]
 impl<const W: usize, const H: usize, const RW: usize> ReachTables<W, H, RW> {
-    /// The tables of `grid`: `≈ 2 · 38 · RW · H` word operations (a `const
-    /// fn`, so a reference parsed at compile time carries them in flash).
+    /// The tables of `grid`, each level from the one below (a square of
+    /// side `2ᵏ + 2` is four of side `2ᵏ⁻¹ + 2`, `2ᵏ⁻¹` apart): about
+    /// `12 · RW · H` word operations a level (a `const fn`, so a reference
+    /// parsed at compile time carries them in flash).
     pub(crate) const fn of(grid: &Grid<W, H, RW>) -> Self {
+        // Level 0: squares of side 3, the rows OR-ed then the columns.
         let rows = grid.words();
+        let mut below = [[0u32; RW]; H];
+        let mut r = 0;
+        while r < H {
+            let mut j = r;
+            while j < r + 3 && j < H {
+                let mut w = 0;
+                while w < RW {
+                    below[r][w] |= rows[j][w];
+                    w += 1;
+                }
+                j += 1;
+            }
+            r += 1;
+        }
+        below = squares(&below, 1, 0);
+        below = squares(&below, 1, 0);
         let mut levels = [const { Grid::new() }; TABLE_LEVELS];
         let mut k = 0;
         while k < TABLE_LEVELS {
-            let side = (1usize << (k + 1)) + 2;
-            let mut table = [[0u32; RW]; H];
-            let mut r = 0;
-            while r < H {
-                // The rows of the square, OR-ed...
-                let mut column = [0u32; RW];
-                let mut j = r;
-                while j < r + side && j < H {
-                    let mut w = 0;
-                    while w < RW {
-                        column[w] |= rows[j][w];
-                        w += 1;
-                    }
-                    j += 1;
-                }
-                // ...then its columns: bit c = OR of bits c..c + side.
-                let mut d = 0;
-                while d < side {
-                    let mut w = 0;
-                    while w < RW {
-                        let next = if d > 0 && w + 1 < RW {
-                            column[w + 1] << (32 - d)
-                        } else {
-                            0
-                        };
-                        table[r][w] |= (column[w] >> d) | next;
-                        w += 1;
-                    }
-                    d += 1;
-                }
-                r += 1;
-            }
-            levels[k] = Grid::from_words(table);
+            let half = 1usize << k;
+            below = squares(&below, half, half);
+            levels[k] = Grid::from_words(below);
             k += 1;
         }
         Self { levels }
@@ -85,6 +74,44 @@ impl<const W: usize, const H: usize, const RW: usize> ReachTables<W, H, RW> {
         let (col, row) = (usize::try_from(col).ok()?, usize::try_from(row).ok()?);
         Some(table.get(col, row))
     }
+}
+
+/// `a` OR-ed with itself `right` columns to the right and `down` rows
+/// below (and both): bit `(c, r)` of the result is set when one of `a`'s
+/// bits `(c, r)`, `(c + right, r)`, `(c, r + down)`, `(c + right, r + down)`
+/// is (`down` 0: the columns only).
+const fn squares<const RW: usize, const H: usize>(
+    a: &[[u32; RW]; H],
+    right: usize,
+    down: usize,
+) -> [[u32; RW]; H] {
+    let mut out = [[0u32; RW]; H];
+    let mut r = 0;
+    while r < H {
+        let mut w = 0;
+        while w < RW {
+            let mut bits = a[r][w] | shifted(&a[r], w, right);
+            if down > 0 && r + down < H {
+                bits |= a[r + down][w] | shifted(&a[r + down], w, right);
+            }
+            out[r][w] = bits;
+            w += 1;
+        }
+        r += 1;
+    }
+    out
+}
+
+/// Word `w` of `row` moved `by` columns towards column 0 (columns past the
+/// row read clear).
+const fn shifted<const RW: usize>(row: &[u32; RW], w: usize, by: usize) -> u32 {
+    let (q, b) = (by / 32, (by % 32) as u32);
+    let low = if w + q < RW { row[w + q] } else { 0 };
+    if b == 0 {
+        return low;
+    }
+    let high = if w + q + 1 < RW { row[w + q + 1] } else { 0 };
+    (low >> b) | (high << (32 - b))
 }
 
 #[cfg(test)]

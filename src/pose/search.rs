@@ -569,11 +569,8 @@ fn clamp_i16(v: i64) -> i16 {
 #[cfg(all(test, feature = "reach-tables"))]
 mod tests {
     use super::*;
-    use crate::config::pyramid_words;
+    use crate::config::{pyramid_words, row_words};
 
-    const S: usize = 64;
-    const RW: usize = 2;
-    const PW: usize = pyramid_words(S, S);
     const N: usize = 360;
 
     /// xorshift32.
@@ -585,35 +582,33 @@ mod tests {
     }
 
     /// Random wall segments and scattered cells.
-    fn scene(seed: u32) -> Grid<S, S, RW> {
+    fn scene<const S: usize, const RW: usize>(seed: u32) -> Grid<S, S, RW> {
         let mut grid = Grid::new();
         let mut state = seed;
-        for _ in 0..6 {
+        for _ in 0..S / 10 {
             let (c, r) = (next(&mut state) as usize % S, next(&mut state) as usize % S);
-            let (horizontal, len) = (
-                next(&mut state) % 2 == 0,
-                5 + next(&mut state) as usize % 25,
-            );
+            let horizontal = next(&mut state) % 2 == 0;
+            let len = 5 + next(&mut state) as usize % (S / 2);
             for i in 0..len {
                 let (c, r) = if horizontal { (c + i, r) } else { (c, r + i) };
                 let _ = grid.set(c, r);
             }
         }
-        for _ in 0..20 {
+        for _ in 0..S / 3 {
             let _ = grid.set(next(&mut state) as usize % S, next(&mut state) as usize % S);
         }
         grid
     }
 
-    /// The reach tables change no search: the same best shift and score,
-    /// rotation by rotation, with and without free space, for every window
-    /// and floor, and the same work spent.
-    #[test]
-    fn reach_tables_keep_every_search() {
+    /// The reach tables change no search at `S × S`: the same best shift
+    /// and score, rotation by rotation, with and without free space, for
+    /// every window and floor, and the same work spent. Returns how many
+    /// searches found a shift.
+    fn same_searches<const S: usize, const RW: usize, const PW: usize>() -> usize {
         let mut searches = 0;
         for seed in 1..=12u32 {
-            let reference = scene(seed.wrapping_mul(0x9E37_79B9));
-            let view = scene(seed.wrapping_mul(0x85EB_CA6B));
+            let reference = scene::<S, RW>(seed.wrapping_mul(0x9E37_79B9));
+            let view = scene::<S, RW>(seed.wrapping_mul(0x85EB_CA6B));
             let mut free = Grid::<S, S, RW>::new();
             for r in 8..S - 8 {
                 for c in 8..S - 8 {
@@ -628,31 +623,41 @@ mod tests {
             for with_free in [None, Some((&free, 3))] {
                 let aligner = |reach| {
                     Aligner::new(&reference, &pyramid, reach, &view, with_free, 1 << 16)
-                        .with_budget(1 << 20)
+                        .with_budget(1 << 24)
                 };
                 let (mut plain, mut fast) = (aligner(None), aligner(Some(&tables)));
                 for degrees in [0, 7, 90, 181, 300] {
                     let alpha = Angle::from_steps_q16(i64::from(degrees) << 16, N);
                     plain.rotate::<N>(alpha, (0, 0));
                     fast.rotate::<N>(alpha, (0, 0));
+                    let wide = S as i32 * 5 / 8;
                     for (centre, radius, floor) in
-                        [((0, 0), 40, 0), ((3, -2), 3, 0), ((0, 0), 16, 20)]
+                        [((0, 0), wide, 0), ((3, -2), 3, 0), ((0, 0), 16, 20)]
                     {
                         let found = plain.search(centre, radius, floor);
-                        assert_eq!(
-                            fast.search(centre, radius, floor),
-                            found,
-                            "seed {seed} α {degrees}"
-                        );
+                        let fast_found = fast.search(centre, radius, floor);
+                        assert_eq!(fast_found, found, "{S}²: seed {seed}, α {degrees}°");
                         searches += usize::from(found.is_some());
                     }
                 }
                 assert_eq!(fast.budget.get(), plain.budget.get());
             }
         }
+        searches
+    }
+
+    #[test]
+    fn reach_tables_keep_every_search() {
+        // 64²: the exact levels; 128²: the pyramid's top level too.
+        let found = same_searches::<64, { row_words(64) }, { pyramid_words(64, 64) }>();
         assert!(
-            searches >= 90,
-            "only {searches} of 360 searches found a shift"
+            found >= 90,
+            "64²: only {found} of 360 searches found a shift"
+        );
+        let found = same_searches::<128, { row_words(128) }, { pyramid_words(128, 128) }>();
+        assert!(
+            found >= 90,
+            "128²: only {found} of 360 searches found a shift"
         );
     }
 }
