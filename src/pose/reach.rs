@@ -35,29 +35,12 @@ impl<const W: usize, const H: usize, const RW: usize> ReachTables<W, H, RW> {
     /// `12 · RW · H` word operations a level (a `const fn`, so a reference
     /// parsed at compile time carries them in flash).
     pub(crate) const fn of(grid: &Grid<W, H, RW>) -> Self {
-        // Level 0: squares of side 3, the rows OR-ed then the columns.
-        let rows = grid.words();
-        let mut below = [[0u32; RW]; H];
-        let mut r = 0;
-        while r < H {
-            let mut j = r;
-            while j < r + 3 && j < H {
-                let mut w = 0;
-                while w < RW {
-                    below[r][w] |= rows[j][w];
-                    w += 1;
-                }
-                j += 1;
-            }
-            r += 1;
-        }
-        below = squares(&below, 1, 0);
-        below = squares(&below, 1, 0);
+        // Level 0: squares of side 3, two steps of one cell from the grid.
+        let mut below = squares(&squares(grid.words(), 1), 1);
         let mut levels = [const { Grid::new() }; TABLE_LEVELS];
         let mut k = 0;
         while k < TABLE_LEVELS {
-            let half = 1usize << k;
-            below = squares(&below, half, half);
+            below = squares(&below, 1 << k);
             levels[k] = Grid::from_words(below);
             k += 1;
         }
@@ -76,23 +59,21 @@ impl<const W: usize, const H: usize, const RW: usize> ReachTables<W, H, RW> {
     }
 }
 
-/// `a` OR-ed with itself `right` columns to the right and `down` rows
-/// below (and both): bit `(c, r)` of the result is set when one of `a`'s
-/// bits `(c, r)`, `(c + right, r)`, `(c, r + down)`, `(c + right, r + down)`
-/// is (`down` 0: the columns only).
+/// The squares of `a` one `step` larger: bit `(c, r)` of the result is set
+/// when one of `a`'s bits `(c, r)`, `(c + step, r)`, `(c, r + step)`,
+/// `(c + step, r + step)` is (bits past the grid read clear).
 const fn squares<const RW: usize, const H: usize>(
     a: &[[u32; RW]; H],
-    right: usize,
-    down: usize,
+    step: usize,
 ) -> [[u32; RW]; H] {
     let mut out = [[0u32; RW]; H];
     let mut r = 0;
     while r < H {
         let mut w = 0;
         while w < RW {
-            let mut bits = a[r][w] | shifted(&a[r], w, right);
-            if down > 0 && r + down < H {
-                bits |= a[r + down][w] | shifted(&a[r + down], w, right);
+            let mut bits = a[r][w] | shifted(&a[r], w, step);
+            if r + step < H {
+                bits |= a[r + step][w] | shifted(&a[r + step], w, step);
             }
             out[r][w] = bits;
             w += 1;

@@ -180,12 +180,8 @@ pub fn row(target: &Target, features: &str, v: &Map<String, Value>) -> Vec<Strin
         (Some(ram), Some(s), Some(stack)) => format!("{ram} B ({s} + {stack})"),
         _ => "–".into(),
     };
-    let name = match features {
-        "" => target.name.to_string(),
-        features => format!("{}, {features}", target.name),
-    };
     vec![
-        name,
+        crate::report::labelled(target.name.to_string(), features),
         count("pairs"),
         count("real_pair_median"),
         count("real_pair_max"),

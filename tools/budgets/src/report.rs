@@ -118,10 +118,15 @@ impl Config {
 
     /// The grid cell of the tables: the side, and the features if any.
     fn grid(&self) -> String {
-        match self.features {
-            "" => format!("{}²", self.side),
-            features => format!("{}², {features}", self.side),
-        }
+        labelled(format!("{}²", self.side), self.features)
+    }
+}
+
+/// A table's label followed by the features, if any.
+pub fn labelled(label: String, features: &str) -> String {
+    match features {
+        "" => label,
+        features => format!("{label}, {features}"),
     }
 }
 
