@@ -211,6 +211,76 @@ fn an_estimate_whose_rival_is_the_truth_is_flagged() {
     });
 }
 
+/// A rival is a correlation peak or a half turn, listed a few degrees off
+/// its own best fit: its refinement may move it by up to
+/// `BEAM_RIVAL_MAX_ROTATION_DEG` (the chosen rotation's by 1°). Listed 4°
+/// off the truth behind a wrong quarter turn, it is refined onto the truth
+/// and becomes the answer; refined to within 5° of the chosen rotation, it
+/// is no rival and keeps its unrefined score.
+#[test]
+fn a_rival_listed_degrees_off_is_refined_onto_its_own_fit() {
+    let (laser, raster) = (laser(), raster());
+    room_turns::each_turn(&laser, &raster, FROM, &TO, |to, first, second, estimate| {
+        let (s1, s2) = (laser.as_scan(first), laser.as_scan(second));
+        let (d, dtheta) = relative(FROM, to);
+        let (alpha, _) = estimator_pose(d, dtheta, f64::from(raster.cell()));
+        let truth = estimate.candidates[0];
+        let listed_as = |chosen: Angle, rival: Angle| {
+            let mut e = estimate.clone();
+            e.alpha = chosen;
+            e.candidates.clear();
+            e.candidates
+                .push(Candidate {
+                    alpha: chosen,
+                    ..truth
+                })
+                .unwrap();
+            e.candidates
+                .push(Candidate {
+                    alpha: rival,
+                    ..truth
+                })
+                .unwrap();
+            e.runner_up = Some(Candidate {
+                alpha: rival,
+                ..truth
+            });
+            e
+        };
+        // Behind a wrong quarter turn, 4° off the truth.
+        let off = truth.alpha + Angle::from_degrees(4.0);
+        let mut confused = listed_as(truth.alpha + Angle::QUARTER_TURN, off);
+        let check = raster.check_on_beams(&s1, &s2, &confused).unwrap();
+        let rival = check.rival.unwrap();
+        assert_eq!(rival.listed, off);
+        assert!(
+            rival.alpha.distance(alpha) < Angle::from_degrees(0.1),
+            "{to:?}: {rival:?}"
+        );
+        assert!(check.switches(), "{to:?}: {check:?}");
+        check.apply(&mut confused);
+        assert!(
+            confused.alpha.distance(alpha) < Angle::from_degrees(0.1),
+            "{to:?}"
+        );
+        // Chosen 3° off the truth, the rival 3° off on the other side: the
+        // rival would refine onto the truth, within 5° of the chosen
+        // rotation, so it is no rival (the chosen one is merely imprecise,
+        // which the final refinement mends) and keeps its listed rotation.
+        let (below, above) = (
+            truth.alpha - Angle::from_degrees(3.0),
+            truth.alpha + Angle::from_degrees(3.0),
+        );
+        let imprecise = listed_as(below, above);
+        let check = raster.check_on_beams(&s1, &s2, &imprecise).unwrap();
+        assert_eq!(
+            check.rival.map(|r| r.alpha),
+            Some(above),
+            "{to:?}: {check:?}"
+        );
+    });
+}
+
 #[test]
 fn unusable_inputs_give_no_judgement() {
     let (laser, raster) = (laser(), raster());

@@ -70,7 +70,8 @@ pub const BEAM_FIT_MAX_ROTATION_DEG: f32 = 1.0;
 pub const BEAM_FIT_MAX_SHIFT_CELLS: f32 = 3.0;
 
 /// [`BEAM_FIT_MAX_ROTATION_DEG`] as a binary angle (2³² = one turn).
-const MAX_TURN: u32 = (BEAM_FIT_MAX_ROTATION_DEG as f64 / 360.0 * 4_294_967_296.0) as u32;
+pub(super) const MAX_TURN: Angle =
+    Angle((BEAM_FIT_MAX_ROTATION_DEG as f64 / 360.0 * 4_294_967_296.0) as u32);
 /// [`BEAM_FIT_MAX_SHIFT_CELLS`] in Q16 cells.
 const MAX_SHIFT_Q16: i64 = (BEAM_FIT_MAX_SHIFT_CELLS as f64 * 65_536.0) as i64;
 /// Width of a bin of the residual histogram, metres (rounded down to a
@@ -521,6 +522,21 @@ impl Raster {
         alpha: Angle,
         translation: &Pose,
     ) -> Result<BeamFit, BeamFitError> {
+        self.refine_on_beams_within(reference, current, alpha, translation, MAX_TURN)
+    }
+
+    /// [`refine_on_beams`](Self::refine_on_beams) with the rotation allowed
+    /// to move by at most `max_turn` instead of
+    /// [`BEAM_FIT_MAX_ROTATION_DEG`] (the check on the beams lets a rival's
+    /// rotation, which no angle search has refined, move farther).
+    pub(super) fn refine_on_beams_within(
+        &self,
+        reference: &Scan<'_>,
+        current: &Scan<'_>,
+        alpha: Angle,
+        translation: &Pose,
+        max_turn: Angle,
+    ) -> Result<BeamFit, BeamFitError> {
         if translation.scale != I16F16::ONE || current.ranges.len() > usize::from(u16::MAX) {
             return Err(BeamFitError::Unsupported);
         }
@@ -610,7 +626,7 @@ impl Raster {
         let shift = (pose.d.0 - start_pose.d.0)
             .abs()
             .max((pose.d.1 - start_pose.d.1).abs());
-        if moved > MAX_TURN || shift > MAX_SHIFT_Q16 {
+        if moved > max_turn.0 || shift > MAX_SHIFT_Q16 {
             return Err(BeamFitError::MovedTooFar);
         }
         // Back to the estimator's convention: α = −θ, t = −R(−θ)·d.
