@@ -32,8 +32,10 @@
 //! within 2° / flagged / wrong among unflagged 80.3 / 25.3 / 4.4 % without
 //! the check, 82.4 / 27.6 / 2.3 % with it, 82.4 / 29.9 / 1.4 % with its
 //! floor ([`BEAM_MIN_SCORE`]: a chosen pose the beams do not confirm is
-//! flagged too). τ, the weight, the lead and the floor were chosen on
-//! those same files; an exhaustive float model of the decision
+//! flagged too; these three with a seen-through weight of 2), 82.7 / 30.7
+//! / 1.0 % with the weight at 3 and rivals refined over
+//! [`BEAM_RIVAL_MAX_ROTATION_DEG`]. τ, the weight, the lead and the floor
+//! were chosen on those same files; an exhaustive float model of the decision
 //! (`tools/csm_model.py`) is what pointed at the rivals' poses.
 //!
 //! # Numbers
@@ -71,7 +73,8 @@ pub const BEAM_SEEN_THROUGH_M: f32 = 0.1;
 /// Weight of the seen-through share against the explained share. Chosen
 /// on the shared real pairs (256², `docs/confidence.md`): 3 instead of 2
 /// took the wrong share among unflagged answers from 1.3 to 1.0 % and
-/// flagged 0.8 % more of the pairs; 4 and 6 flagged more for less.
+/// flagged 0.8 % more of the pairs; 4 and 6 took it to 0.86 and 0.81 % but
+/// flagged 31.2 and 32.3 % and lost answers within 2°.
 pub const BEAM_SEEN_THROUGH_WEIGHT: i32 = 3;
 /// A rival's rotation may move by at most this in its refinement, degrees
 /// (the chosen rotation's by [`BEAM_FIT_MAX_ROTATION_DEG`]): a rival is a
@@ -108,7 +111,7 @@ pub struct BeamAgreement {
 }
 
 impl BeamAgreement {
-    /// `explained − BEAM_SEEN_THROUGH_WEIGHT · seen_through`, in [−2, 1].
+    /// `explained − BEAM_SEEN_THROUGH_WEIGHT · seen_through`, in [−3, 1].
     pub fn score(&self) -> Score {
         self.explained - self.seen_through * BEAM_SEEN_THROUGH_WEIGHT
     }
