@@ -10,9 +10,10 @@ mod room_turns;
 
 use host_tests::raycast::{l_room as room, relative, Laser};
 use hough_heading::stages::{
-    BEAM_MATCH_M, BEAM_MIN_SCORE, BEAM_SEEN_THROUGH_M, BEAM_SEEN_THROUGH_WEIGHT, BEAM_SEGMENT_MAX_M,
+    BEAM_MATCH_M, BEAM_MIN_SCORE, BEAM_SEEN_THROUGH_CONFIDENCE, BEAM_SEEN_THROUGH_M,
+    BEAM_SEEN_THROUGH_WEIGHT, BEAM_SEGMENT_MAX_M,
 };
-use hough_heading::{Angle, Candidate, Raster, Scan, Score, Status};
+use hough_heading::{Angle, Candidate, Estimate, Raster, Scan, Score, Status};
 
 /// A 180° laser of 361 beams, 30 m (the shared files' geometry).
 fn laser() -> Laser {
@@ -163,13 +164,22 @@ fn an_estimate_whose_rival_is_the_truth_is_flagged() {
     room_turns::each_turn(&laser, &raster, FROM, &TO, |to, first, second, estimate| {
         let (s1, s2) = (laser.as_scan(first), laser.as_scan(second));
         assert_eq!(estimate.status, Status::Confident, "{to:?}");
-        // The right answer: the beams agree, nothing changes.
+        // The right answer: the beams agree; nothing changes but the
+        // confidence, capped by the few end points seen through (≥ 0.9).
         let check = raster.check_on_beams(&s1, &s2, &estimate).unwrap();
         assert!(!check.contradicts(), "{to:?}: {check:?}");
         assert!(!check.switches());
+        assert!(
+            check.confidence_cap() > Score::from_num(0.9),
+            "{to:?}: {check:?}"
+        );
         let mut kept = estimate.clone();
         check.apply(&mut kept);
-        assert_eq!(kept, estimate);
+        let capped = Estimate {
+            confidence: estimate.confidence.min(check.confidence_cap()),
+            ..estimate.clone()
+        };
+        assert_eq!(kept, capped);
         // The same estimate with a wrong rotation chosen (its translation the
         // truth's, turned with it) and the truth listed as the runner-up.
         let truth = estimate.candidates[0];
@@ -279,6 +289,44 @@ fn a_rival_listed_degrees_off_is_refined_onto_its_own_fit() {
             "{to:?}: {check:?}"
         );
     });
+}
+
+/// The chosen pose's seen-through share caps the confidence at
+/// `1 − BEAM_SEEN_THROUGH_CONFIDENCE × share` (hand-computed here): a
+/// confident answer stays confident under a cap of ½ or more, and becomes
+/// `LowOverlap` with a confidence of at most ¼ under a smaller one.
+#[test]
+fn walls_where_the_other_sensor_saw_through_cap_the_confidence() {
+    let (laser, raster) = (laser(), raster());
+    room_turns::each_turn(
+        &laser,
+        &raster,
+        FROM,
+        &TO[..1],
+        |to, first, second, estimate| {
+            let (s1, s2) = (laser.as_scan(first), laser.as_scan(second));
+            assert_eq!(estimate.status, Status::Confident, "{to:?}");
+            let mut check = raster.check_on_beams(&s1, &s2, &estimate).unwrap();
+            check.rival = None;
+            check.chosen.agreement.explained = Score::from_num(0.9);
+            let k = f64::from(BEAM_SEEN_THROUGH_CONFIDENCE);
+            for share in [0.0, 0.05, 1.0 / k - 0.01, 1.0 / k + 0.01, 0.2] {
+                check.chosen.agreement.seen_through = Score::from_num(share);
+                let cap = (1.0 - k * share).max(0.0);
+                assert!((check.confidence_cap().to_num::<f64>() - cap).abs() < 1e-3);
+                let mut judged = estimate.clone();
+                judged.confidence = Score::ONE;
+                check.flag(&mut judged);
+                if cap >= 0.5 {
+                    assert_eq!(judged.status, Status::Confident, "share {share}");
+                    assert!((judged.confidence.to_num::<f64>() - cap).abs() < 1e-3);
+                } else {
+                    assert_eq!(judged.status, Status::LowOverlap, "share {share}");
+                    assert!(judged.confidence <= Score::from_num(0.25));
+                }
+            }
+        },
+    );
 }
 
 #[test]
