@@ -36,8 +36,11 @@ done
     echo "when its \`confidence\` is at least 0.5 (the winner's support leads the"
     echo "runner-up's by \`decision_gap\`, its overlap reaches \`min_overlap\`, and"
     echo "the check on the beams neither prefers a rival nor scores it below"
-    echo "\`BEAM_MIN_SCORE\`);"
-    echo "the tables below show what other cuts on \`confidence\` give. The"
+    echo "\`BEAM_MIN_SCORE\`). The beams also cap the confidence at 1 − 6 × the"
+    echo "share of end points where the other sensor saw through"
+    echo "(\`BEAM_SEEN_THROUGH_CONFIDENCE\`): walls in the other scan's free space"
+    echo "mark the wrong poses that otherwise fit, so the higher cuts keep fewer"
+    echo "of them. The tables below show what other cuts on \`confidence\` give. The"
     echo "thresholds were chosen on these same files: on other buildings and"
     echo "sensors expect the shares to move."
     for size in 256 128; do

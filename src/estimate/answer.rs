@@ -171,7 +171,10 @@ pub struct Estimate {
     /// How far to trust `alpha`.
     pub status: Status,
     /// A summary in [0, 1]: the correlation of the winner, scaled down as the
-    /// rival peak or the direction margin approach their thresholds.
+    /// rival peak or the direction margin approach their thresholds. On
+    /// scans, [`BeamCheck::flag`](crate::BeamCheck::flag) caps it further by
+    /// the share of end points the other sensor saw through. What a cut on it
+    /// means on real pairs: `docs/confidence.md`.
     pub confidence: Score,
     /// Pearson correlation of the winning shift (modulo π), in [−1, 1].
     pub correlation: Score,
