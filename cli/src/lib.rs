@@ -319,6 +319,12 @@ pub struct ScanGridArgs {
     /// Keep only the disc inscribed in the grid.
     #[arg(long)]
     pub disc: bool,
+}
+
+/// What the beams do after the grid estimate (the commands that estimate
+/// on scans; `reference` only stores a scan).
+#[derive(Clone, Debug, Default, Args)]
+pub struct BeamArgs {
     /// Report the grid estimate's pose as it is, without refining it on the
     /// beams' end points (`Raster::refine_on_beams`).
     #[arg(long)]
@@ -330,7 +336,8 @@ pub struct ScanGridArgs {
 }
 
 impl ScanGridArgs {
-    fn options(&self) -> Result<RasterOptions, Fatal> {
+    /// The raster options of these arguments and `beams`.
+    fn options(&self, beams: &BeamArgs) -> Result<RasterOptions, Fatal> {
         if let Some(cell) = self.cell.filter(|c| !(c.is_finite() && *c > 0.0)) {
             return Err(Fatal::usage(format!(
                 "--cell {cell}: must be a positive number of metres"
@@ -340,8 +347,8 @@ impl ScanGridArgs {
             cell: self.cell,
             connect: (self.connect > 0.0).then_some(self.connect),
             disc: self.disc,
-            beam_refine: !self.no_beam_refine,
-            beam_check: !self.no_beam_check,
+            beam_refine: !beams.no_beam_refine,
+            beam_check: !beams.no_beam_check,
         })
     }
 }
@@ -373,6 +380,9 @@ pub struct ScansArgs {
     /// How scans become grids.
     #[command(flatten)]
     pub grid: ScanGridArgs,
+    /// What the beams do after the grid estimate.
+    #[command(flatten)]
+    pub beams: BeamArgs,
     /// Estimator options.
     #[command(flatten)]
     pub estimator: EstimatorArgs,
@@ -428,6 +438,9 @@ pub enum PlotWhat {
         /// How scans become grids.
         #[command(flatten)]
         grid: ScanGridArgs,
+        /// What the beams do after the grid estimate.
+        #[command(flatten)]
+        beams: BeamArgs,
         /// Estimator options.
         #[command(flatten)]
         estimator: EstimatorArgs,
@@ -884,7 +897,7 @@ fn scans_file(
     workers: &mut Workers<Box<dyn Engine>>,
     out: &mut impl Write,
 ) -> Result<(usize, Summary), Fatal> {
-    let options = args.grid.options()?;
+    let options = args.grid.options(&args.beams)?;
     let bytes = read_input(path)?;
     let mut lines = lines(&bytes);
     if let Some(limit) = args.limit {

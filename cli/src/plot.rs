@@ -79,9 +79,10 @@ pub fn run(args: &PlotArgs) -> Result<(), Fatal> {
             pairs,
             index,
             grid,
+            beams,
             estimator,
         } => {
-            let options = grid.options()?;
+            let options = grid.options(beams)?;
             let mut engine = estimator.engine(grid.size)?;
             let bytes = read_input(pairs)?;
             let all = lines(&bytes);

@@ -10,7 +10,7 @@ use hough_heading::stages::SCAN_REFERENCE_FORMAT;
 
 use crate::engine::{engine, View, CONFIGURATIONS};
 use crate::scans::PairRecord;
-use crate::{Fatal, ScanGridArgs};
+use crate::{BeamArgs, Fatal, ScanGridArgs};
 
 /// `reference --scans PAIRS.jsonl --out FILE`.
 #[derive(Clone, Debug, Args)]
@@ -86,7 +86,7 @@ pub fn run(args: &StoredArgs) -> Result<(), Fatal> {
     let scan = record.scan(&ranges);
     let raster = args
         .grid
-        .options()?
+        .options(&BeamArgs::default())?
         .raster(&[scan], size)
         .ok_or_else(|| Fatal::usage("the cell size must be finite and positive"))?;
     let stats = engine.rasterize(View::First, &scan, &raster);

@@ -456,6 +456,18 @@ fn reference_writes_a_scan_reference_the_library_reads() {
         &out.display().to_string(),
     ]);
     assert_eq!(third.status.code(), Some(2));
+    // The beams' options belong to the commands that estimate: storing a
+    // scan refuses them rather than ignoring them.
+    let estimating_option = tool(&[
+        "reference",
+        "--scans",
+        &pairs.display().to_string(),
+        "--no-beam-check",
+        "--out",
+        &out.display().to_string(),
+    ]);
+    assert_eq!(estimating_option.status.code(), Some(2));
+    assert!(stderr(&estimating_option).contains("--no-beam-check"));
 }
 
 #[test]

@@ -32,7 +32,7 @@ use super::engine::Engine;
 use super::jobs::{JobsArgs, Workers};
 use super::scans::{self, Check, OutputLine, PairRecord, RasterOptions, ScanRecord, Truth};
 use super::summary::{Method, Summary};
-use super::{EstimatorArgs, Fatal, ScanGridArgs};
+use super::{BeamArgs, EstimatorArgs, Fatal, ScanGridArgs};
 use carmen::{CarmenReader, FlaserGeometry};
 use trajectory::Trajectory;
 
@@ -259,6 +259,9 @@ pub struct LogArgs {
     /// How scans become grids.
     #[command(flatten)]
     pub grid: ScanGridArgs,
+    /// What the beams do after the grid estimate.
+    #[command(flatten)]
+    pub beams: BeamArgs,
     /// Estimator options.
     #[command(flatten)]
     pub estimator: EstimatorArgs,
@@ -588,7 +591,7 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
         workers: Workers::new(args.jobs.threads(), || {
             args.estimator.engine(args.grid.size)
         })?,
-        options: args.grid.options()?,
+        options: args.grid.options(&args.beams)?,
         mode: args.estimator.mode.into(),
         out: BufWriter::new(io::stdout().lock()),
         pending: Vec::new(),
