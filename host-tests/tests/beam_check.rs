@@ -325,6 +325,16 @@ fn walls_where_the_other_sensor_saw_through_cap_the_confidence() {
                     assert!(judged.confidence <= Score::from_num(0.25));
                 }
             }
+            // Shares no check produces (the fields are public): no
+            // overflow, a cap within [0, 1].
+            for share in [Score::MAX, Score::MIN, Score::from_num(-5)] {
+                check.chosen.agreement.seen_through = share;
+                check.chosen.agreement.explained = share;
+                let cap = check.confidence_cap();
+                assert!((Score::ZERO..=Score::ONE).contains(&cap), "{share}: {cap}");
+                let _ = check.chosen.agreement.score();
+                check.flag(&mut estimate.clone());
+            }
         },
     );
 }

@@ -34,7 +34,8 @@
 //! floor ([`BEAM_MIN_SCORE`]: a chosen pose the beams do not confirm is
 //! flagged too; these three with a seen-through weight of 2), 82.7 / 30.7
 //! / 1.0 % with the weight at 3 and rivals refined over
-//! [`BEAM_RIVAL_MAX_ROTATION_DEG`]. τ, the weight, the lead and the floor
+//! [`BEAM_RIVAL_MAX_ROTATION_DEG`], 82.7 / 30.8 / 1.0 % with the confidence
+//! capped as well ([`BEAM_SEEN_THROUGH_CONFIDENCE`]). τ, the weight, the lead and the floor
 //! were chosen on those same files; an exhaustive float model of the decision
 //! (`tools/csm_model.py`) is what pointed at the rivals' poses.
 //!
@@ -121,9 +122,13 @@ pub struct BeamAgreement {
 }
 
 impl BeamAgreement {
-    /// `explained − BEAM_SEEN_THROUGH_WEIGHT · seen_through`, in [−3, 1].
+    /// `explained − BEAM_SEEN_THROUGH_WEIGHT · seen_through`, in [−3, 1]
+    /// (saturating for shares outside [0, 1]).
     pub fn score(&self) -> Score {
-        self.explained - self.seen_through * BEAM_SEEN_THROUGH_WEIGHT
+        self.explained.saturating_sub(
+            self.seen_through
+                .saturating_mul_int(BEAM_SEEN_THROUGH_WEIGHT),
+        )
     }
 }
 
@@ -187,8 +192,10 @@ impl BeamCheck {
     /// least 0. Below ½ (more than 1/12 of the end points where the other
     /// sensor saw through) it does not confirm the answer either.
     pub fn confidence_cap(&self) -> Score {
-        (Score::ONE - self.chosen.agreement.seen_through * BEAM_SEEN_THROUGH_CONFIDENCE)
-            .max(Score::ZERO)
+        let seen = self.chosen.agreement.seen_through;
+        Score::ONE
+            .saturating_sub(seen.saturating_mul_int(BEAM_SEEN_THROUGH_CONFIDENCE))
+            .clamp(Score::ZERO, Score::ONE)
     }
 
     /// Caps `estimate`'s confidence at [`confidence_cap`](Self::confidence_cap)
