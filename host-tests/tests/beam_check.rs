@@ -13,7 +13,9 @@ use hough_heading::stages::{
     BEAM_MATCH_M, BEAM_MIN_SCORE, BEAM_SEEN_THROUGH_CONFIDENCE, BEAM_SEEN_THROUGH_M,
     BEAM_SEEN_THROUGH_WEIGHT, BEAM_SEGMENT_MAX_M,
 };
-use hough_heading::{Angle, Candidate, Estimate, Raster, Scan, Score, Status};
+use hough_heading::{
+    Angle, BeamAgreement, BeamPose, Candidate, Estimate, Raster, Scan, Score, Status,
+};
 
 /// A 180° laser of 361 beams, 30 m (the shared files' geometry).
 fn laser() -> Laser {
@@ -335,6 +337,22 @@ fn walls_where_the_other_sensor_saw_through_cap_the_confidence() {
                 let _ = check.chosen.agreement.score();
                 check.flag(&mut estimate.clone());
             }
+            // The widest lead: a rival at the top of the range, the chosen
+            // pose at the bottom.
+            check.chosen.agreement = BeamAgreement {
+                explained: Score::MIN,
+                seen_through: Score::ZERO,
+            };
+            check.rival = Some(BeamPose {
+                agreement: BeamAgreement {
+                    explained: Score::MAX,
+                    seen_through: Score::ZERO,
+                },
+                ..check.chosen
+            });
+            assert_eq!(check.lead(), Some(Score::MAX));
+            assert!(check.contradicts() && check.switches());
+            check.apply(&mut estimate.clone());
         },
     );
 }

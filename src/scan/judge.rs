@@ -164,8 +164,11 @@ pub struct BeamCheck {
 impl BeamCheck {
     /// The rival's score minus the chosen pose's; `None` without a rival.
     pub fn lead(&self) -> Option<Score> {
-        self.rival
-            .map(|r| r.agreement.score() - self.chosen.agreement.score())
+        self.rival.map(|r| {
+            r.agreement
+                .score()
+                .saturating_sub(self.chosen.agreement.score())
+        })
     }
 
     /// The beams prefer another rotation than the estimate's (a positive
