@@ -385,17 +385,13 @@ fn reference_writes_a_scan_reference_the_library_reads() {
     type Stored = scan_reference!(128, 128, 360, 2048);
     let pairs = data_dir().join("scans.jsonl");
     let out = scratch("reference").join("dock.hhs");
-    let o = tool(&[
-        "reference",
-        "--scans",
-        &pairs.display().to_string(),
-        "--line",
-        "2",
-        "--size",
-        "128",
-        "--out",
-        &out.display().to_string(),
-    ]);
+    let (pairs_arg, out_arg) = (pairs.display().to_string(), out.display().to_string());
+    // `reference --scans PAIRS --out OUT` and `extra`.
+    let reference = |extra: &[&str]| {
+        let base = ["reference", "--scans", &pairs_arg, "--out", &out_arg];
+        tool(&[&base[..], extra].concat())
+    };
+    let o = reference(&["--line", "2", "--size", "128"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let bytes = std::fs::read(&out).unwrap();
     let stored = Stored::from_bytes(&bytes).unwrap();
@@ -431,41 +427,18 @@ fn reference_writes_a_scan_reference_the_library_reads() {
     let check = check.unwrap();
     assert!(!check.too_weak() && !check.contradicts(), "{check:?}");
     // A line the file does not have, and a third scan: clear errors.
-    let missing = tool(&[
-        "reference",
-        "--scans",
-        &pairs.display().to_string(),
-        "--line",
-        "99",
-        "--out",
-        &out.display().to_string(),
-    ]);
+    let missing = reference(&["--line", "99"]);
     assert_eq!(missing.status.code(), Some(2));
     assert!(
         stderr(&missing).contains("no line 99"),
         "{}",
         stderr(&missing)
     );
-    let third = tool(&[
-        "reference",
-        "--scans",
-        &pairs.display().to_string(),
-        "--scan",
-        "3",
-        "--out",
-        &out.display().to_string(),
-    ]);
+    let third = reference(&["--scan", "3"]);
     assert_eq!(third.status.code(), Some(2));
     // The beams' options belong to the commands that estimate: storing a
     // scan refuses them rather than ignoring them.
-    let estimating_option = tool(&[
-        "reference",
-        "--scans",
-        &pairs.display().to_string(),
-        "--no-beam-check",
-        "--out",
-        &out.display().to_string(),
-    ]);
+    let estimating_option = reference(&["--no-beam-check"]);
     assert_eq!(estimating_option.status.code(), Some(2));
     assert!(stderr(&estimating_option).contains("--no-beam-check"));
 }

@@ -35,9 +35,10 @@
 //! flagged too; these three with a seen-through weight of 2), 82.7 / 30.7
 //! / 1.0 % with the weight at 3 and rivals refined over
 //! [`BEAM_RIVAL_MAX_ROTATION_DEG`], 82.7 / 30.8 / 1.0 % with the confidence
-//! capped as well ([`BEAM_SEEN_THROUGH_CONFIDENCE`]). τ, the weight, the lead and the floor
-//! were chosen on those same files; an exhaustive float model of the decision
-//! (`tools/csm_model.py`) is what pointed at the rivals' poses.
+//! capped as well ([`BEAM_SEEN_THROUGH_CONFIDENCE`]). τ, the weight, the
+//! lead, the floor and the cap were chosen on those same files; an
+//! exhaustive float model of the decision (`tools/csm_model.py`) is what
+//! pointed at the rivals' poses.
 //!
 //! # Numbers
 //!
@@ -55,7 +56,7 @@
 //! with).
 
 use super::beam::{BeamEnd, ScanBeams};
-use super::refine::{for_each_end, FitPose, Segments, MAX_TURN};
+use super::refine::{for_each_end, limit_angle, FitPose, Segments, MAX_TURN};
 use super::sine::sin_cos;
 use super::{Raster, Scan};
 use crate::angle::Angle;
@@ -344,7 +345,7 @@ impl Raster {
         estimate: &Estimate,
     ) -> Option<BeamCheck> {
         // Other rotations: 5° apart, the estimator's separation of candidates.
-        let separation = Angle(((5u64 << 32) / 360) as u32);
+        let separation = limit_angle(5.0);
         let mut chosen: Option<BeamPose> = None;
         let mut rival: Option<BeamPose> = None;
         let listed = estimate
@@ -442,8 +443,7 @@ const fn q16_score(value: f32) -> Score {
 }
 
 /// [`BEAM_RIVAL_MAX_ROTATION_DEG`] as a binary angle (2³² = one turn).
-const RIVAL_MAX_TURN: Angle =
-    Angle((BEAM_RIVAL_MAX_ROTATION_DEG as f64 / 360.0 * 4_294_967_296.0) as u32);
+const RIVAL_MAX_TURN: Angle = limit_angle(BEAM_RIVAL_MAX_ROTATION_DEG);
 
 /// A rival whose best start scores this much below the chosen pose is not
 /// refined: the refinement does not lift it that far.
