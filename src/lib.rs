@@ -117,6 +117,7 @@
 
 #![no_std]
 #![forbid(unsafe_code)]
+extern crate std;
 
 mod accumulator;
 mod angle;

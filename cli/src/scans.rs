@@ -406,14 +406,17 @@ pub struct BeamCheckLine {
     pub explained: f64,
     /// Its seen-through share (`BeamAgreement::seen_through`).
     pub seen_through: f64,
+    /// Its share of end points in the other sensor's field of view
+    /// (`BeamAgreement::in_view`).
+    pub in_view: f64,
     /// The best scored other rotation, when there was one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rival: Option<BeamRival>,
     /// The rival scores higher than the grid's answer (a confident answer
     /// is then flagged).
     pub contradicts: bool,
-    /// The rival leads by `BEAM_SWITCH_LEAD` or more: it is the answer
-    /// (unless a prior was given).
+    /// The rival leads by `BEAM_SWITCH_LEAD` or more, and per end point in
+    /// view too: it is the answer (unless a prior was given).
     pub switches: bool,
     /// The grid's answer scores below `BEAM_MIN_SCORE` on the beams (a
     /// confident answer is then `low_overlap`).
@@ -429,6 +432,8 @@ pub struct BeamRival {
     pub explained: f64,
     /// Its seen-through share.
     pub seen_through: f64,
+    /// Its share of end points in the other sensor's field of view.
+    pub in_view: f64,
 }
 
 impl BeamCheckLine {
@@ -437,10 +442,12 @@ impl BeamCheckLine {
         Self {
             explained: share(check.chosen.agreement.explained),
             seen_through: share(check.chosen.agreement.seen_through),
+            in_view: share(check.chosen.agreement.in_view),
             rival: check.rival.map(|r| BeamRival {
                 dtheta_deg: round(wrap_deg(-f64::from(r.alpha.to_degrees())), 4),
                 explained: share(r.agreement.explained),
                 seen_through: share(r.agreement.seen_through),
+                in_view: share(r.agreement.in_view),
             }),
             contradicts: check.contradicts(),
             switches: check.switches(),

@@ -8,13 +8,13 @@
 
 mod room_turns;
 
-use host_tests::raycast::{l_room as room, relative, Laser};
+use host_tests::raycast::{l_room as room, relative, Laser, Wall};
 use hough_heading::stages::{
     BEAM_MATCH_M, BEAM_MIN_SCORE, BEAM_SEEN_THROUGH_CONFIDENCE, BEAM_SEEN_THROUGH_M,
     BEAM_SEEN_THROUGH_WEIGHT, BEAM_SEGMENT_MAX_M,
 };
 use hough_heading::{
-    Angle, BeamAgreement, BeamPose, Candidate, Estimate, Raster, Scan, Score, Status,
+    Angle, BeamAgreement, BeamCheck, BeamPose, Candidate, Estimate, Raster, Scan, Score, Status,
 };
 
 /// A 180° laser of 361 beams, 30 m (the shared files' geometry).
@@ -55,8 +55,15 @@ fn ends(laser: &Laser, ranges: &[f32]) -> Vec<Option<(f64, f64)>> {
 }
 
 /// The `f64` shares of one direction: `from`'s end points moved by the
-/// motion `(d, dθ)` into `into`'s frame (explained, seen through).
-fn one_way(laser: &Laser, into: &[f32], from: &[f32], d: (f64, f64), dtheta: f64) -> (f64, f64) {
+/// motion `(d, dθ)` into `into`'s frame (explained, seen through, in view:
+/// the bearing within one beam of the field of view).
+fn one_way(
+    laser: &Laser,
+    into: &[f32],
+    from: &[f32],
+    d: (f64, f64),
+    dtheta: f64,
+) -> (f64, f64, f64) {
     let walls = ends(laser, into);
     let (s, c) = dtheta.sin_cos();
     let (tau, margin) = (f64::from(BEAM_MATCH_M), f64::from(BEAM_SEEN_THROUGH_M));
@@ -66,12 +73,16 @@ fn one_way(laser: &Laser, into: &[f32], from: &[f32], d: (f64, f64), dtheta: f64
             .ok()
             .and_then(|k| walls.get(k).copied().flatten())
     };
-    let (mut explained, mut seen, mut count) = (0.0, 0.0, 0.0);
+    let (mut explained, mut seen, mut in_view, mut count) = (0.0, 0.0, 0.0, 0.0);
     for q in ends(laser, from).into_iter().flatten() {
         count += 1.0;
         let p = (c * q.0 - s * q.1 + d.0, s * q.0 + c * q.1 + d.1);
         let bearing = p.1.atan2(p.0);
         let beam = ((bearing - laser.angle_min) / laser.angle_increment).floor() as i64;
+        if !(-1..=walls.len() as i64).contains(&beam) {
+            continue;
+        }
+        in_view += 1.0;
         // The segment around the bearing whose midpoint is nearest.
         let mut best: Option<(f64, f64)> = None;
         for k in beam - 1..=beam + 1 {
@@ -99,11 +110,17 @@ fn one_way(laser: &Laser, into: &[f32], from: &[f32], d: (f64, f64), dtheta: f64
             seen += f64::from(u8::from(p.0.hypot(p.1) < nearest - nearest / 32.0 - margin));
         }
     }
-    (explained / count, seen / count)
+    (explained / count, seen / count, in_view / count)
 }
 
-/// Both directions, averaged: `(explained, seen through)`.
-fn reference_shares(laser: &Laser, a: &[f32], b: &[f32], d: (f64, f64), dtheta: f64) -> (f64, f64) {
+/// Both directions, averaged: `(explained, seen through, in view)`.
+fn reference_shares(
+    laser: &Laser,
+    a: &[f32],
+    b: &[f32],
+    d: (f64, f64),
+    dtheta: f64,
+) -> (f64, f64, f64) {
     let forward = one_way(laser, a, b, d, dtheta);
     // The inverse motion: a point of `a` in `b`'s frame.
     let (s, c) = (-dtheta).sin_cos();
@@ -112,6 +129,7 @@ fn reference_shares(laser: &Laser, a: &[f32], b: &[f32], d: (f64, f64), dtheta: 
     (
         (forward.0 + backward.0) / 2.0,
         (forward.1 + backward.1) / 2.0,
+        (forward.2 + backward.2) / 2.0,
     )
 }
 
@@ -138,13 +156,14 @@ fn the_shares_agree_with_an_f64_reference_and_single_out_the_true_pose() {
                 .agreement_on_beams(&laser.as_scan(&first), &laser.as_scan(&second), alpha, t)
                 .unwrap();
             let want = reference_shares(&laser, &first, &second, d, dtheta + turn);
-            let (e, s) = (
+            let (e, s, v) = (
                 got.explained.to_num::<f64>(),
                 got.seen_through.to_num::<f64>(),
+                got.in_view.to_num::<f64>(),
             );
             assert!(
-                (e - want.0).abs() < 0.02 && (s - want.1).abs() < 0.01,
-                "{to:?} {turn}: library ({e}, {s}), f64 {want:?}"
+                (e - want.0).abs() < 0.02 && (s - want.1).abs() < 0.01 && (v - want.2).abs() < 0.01,
+                "{to:?} {turn}: library ({e}, {s}, {v}), f64 {want:?}"
             );
             let score = e - f64::from(BEAM_SEEN_THROUGH_WEIGHT) * s;
             assert!((got.score().to_num::<f64>() - score).abs() < 1e-3);
@@ -342,17 +361,34 @@ fn walls_where_the_other_sensor_saw_through_cap_the_confidence() {
             check.chosen.agreement = BeamAgreement {
                 explained: Score::MIN,
                 seen_through: Score::ZERO,
+                in_view: Score::ONE,
             };
             check.rival = Some(BeamPose {
                 agreement: BeamAgreement {
                     explained: Score::MAX,
                     seen_through: Score::ZERO,
+                    in_view: Score::ONE,
                 },
                 ..check.chosen
             });
             assert_eq!(check.lead(), Some(Score::MAX));
             assert!(check.contradicts() && check.switches());
             check.apply(&mut estimate.clone());
+            // In-view shares at the ends of the range: no overflow; none in
+            // view is above nothing.
+            for (a, b) in [
+                (Score::MAX, Score::MIN),
+                (Score::MIN, Score::MAX),
+                (Score::MAX, Score::MAX),
+            ] {
+                let mut rival = check.rival.unwrap();
+                rival.agreement.in_view = a;
+                check.chosen.agreement.in_view = b;
+                let above = rival.agreement.in_view_above(&check.chosen.agreement);
+                assert_eq!(above, a > Score::ZERO, "{a} {b}");
+                check.rival = Some(rival);
+                assert_eq!(check.switches(), above);
+            }
         },
     );
 }
@@ -422,4 +458,97 @@ fn an_estimate_the_beams_do_not_confirm_is_flagged() {
         assert!(lonely.confidence <= Score::from_num(0.25));
         assert_eq!(lonely.alpha, off.alpha, "nothing to switch to");
     });
+}
+
+/// A corridor 1.4 m wide with a niche in each wall, seen from one end.
+fn corridor() -> Vec<Wall> {
+    vec![
+        ((-20.0, 0.7), (2.0, 0.7)),
+        ((2.0, 0.7), (2.0, 0.9)),
+        ((2.0, 0.9), (3.0, 0.9)),
+        ((3.0, 0.9), (3.0, 0.7)),
+        ((3.0, 0.7), (20.0, 0.7)),
+        ((-20.0, -0.7), (4.0, -0.7)),
+        ((4.0, -0.7), (4.0, -0.9)),
+        ((4.0, -0.9), (4.6, -0.9)),
+        ((4.6, -0.9), (4.6, -0.7)),
+        ((4.6, -0.7), (20.0, -0.7)),
+    ]
+}
+
+/// A 180° sensor that looks down a corridor and moves 0.9 m along it: at
+/// the truth the nearest walls of the first scan (most of its end points)
+/// fall behind the second sensor, while the half turn slid 4.9 m along
+/// the corridor lays both scans' near walls far into the other's view. The
+/// plain score prefers that half turn; per end point in view the truth
+/// leads, and the rival does not replace the answer (it is flagged).
+#[test]
+fn a_half_turn_that_only_brings_more_end_points_into_view_does_not_replace_the_answer() {
+    let laser = laser();
+    let raster = Raster::with_radius(5.0, 128).unwrap().connect(0.3);
+    let cell = f64::from(raster.cell());
+    let (from, to) = ((0.0, 0.0, 0.0), (0.9, 0.02, 0.025));
+    let (d, dtheta) = relative(from, to);
+    let agreement = |first: &[f32], second: &[f32], turn: f64, slide: f64| {
+        let (alpha, t) = estimator_pose((d.0 + slide, d.1), dtheta + turn, cell);
+        let got = raster
+            .agreement_on_beams(&laser.as_scan(first), &laser.as_scan(second), alpha, t)
+            .unwrap();
+        (alpha, t, got)
+    };
+    room_turns::each_turn_in(
+        &corridor(),
+        &laser,
+        &raster,
+        from,
+        &[to],
+        |_, first, second, estimate| {
+            let (alpha, t, truth) = agreement(first, second, 0.0, 0.0);
+            let (half_alpha, half_t, half) = agreement(first, second, std::f64::consts::PI, 4.9);
+            // The in-view shares against the f64 reference.
+            for (got, turn, slide) in [(truth, 0.0, 0.0), (half, std::f64::consts::PI, 4.9)] {
+                let want =
+                    reference_shares(&laser, first, second, (d.0 + slide, d.1), dtheta + turn);
+                let v = got.in_view.to_num::<f64>();
+                assert!((v - want.2).abs() < 0.01, "library {v}, f64 {want:?}");
+            }
+            assert!(
+                half.score() > truth.score() + Score::from_num(0.05),
+                "{truth:?} {half:?}"
+            );
+            assert!(truth.in_view < Score::from_num(0.8) && half.in_view > Score::from_num(0.9));
+            assert!(truth.in_view_above(&half) && !half.in_view_above(&truth));
+            let pose = |listed: Angle, translation: (Score, Score), agreement| BeamPose {
+                listed,
+                alpha: listed,
+                translation,
+                agreement,
+            };
+            let check = BeamCheck {
+                chosen: pose(alpha, t, truth),
+                rival: Some(pose(half_alpha, half_t, half)),
+            };
+            assert!(check.contradicts() && !check.switches());
+            let mut judged = Estimate {
+                alpha,
+                status: Status::Confident,
+                ..estimate
+            };
+            check.apply(&mut judged);
+            assert_eq!(judged.alpha, alpha);
+            assert_eq!(judged.status, Status::AmbiguousDirection);
+            // The same rival, leading per end point in view as well, replaces it.
+            let leading = BeamAgreement {
+                in_view: Score::from_num(0.75),
+                ..half
+            };
+            let check = BeamCheck {
+                rival: Some(pose(half_alpha, half_t, leading)),
+                ..check
+            };
+            assert!(leading.in_view_above(&truth) && check.switches());
+            check.apply(&mut judged);
+            assert_eq!(judged.alpha, half_alpha);
+        },
+    );
 }

@@ -982,7 +982,10 @@ fn fuzz_scans() {
                 for pose in core::iter::once(check.chosen).chain(check.rival) {
                     let a = pose.agreement;
                     prop_assert!(
-                        (0..=1).contains(&a.explained) && (0..=1).contains(&a.seen_through)
+                        (0..=1).contains(&a.explained)
+                            && (0..=1).contains(&a.seen_through)
+                            && (0..=1).contains(&a.in_view)
+                            && a.seen_through <= a.in_view
                     );
                 }
                 let mut checked = scans.clone();
