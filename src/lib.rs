@@ -117,7 +117,6 @@
 
 #![no_std]
 #![forbid(unsafe_code)]
-extern crate std;
 
 mod accumulator;
 mod angle;

@@ -43,6 +43,12 @@ done
     echo "of them. The tables below show what other cuts on \`confidence\` give. The"
     echo "thresholds were chosen on these same files: on other buildings and"
     echo "sensors expect the shares to move."
+    echo
+    echo "\`res_gt\` is the pair file's median distance from a point of scan 2,"
+    echo "placed by the ground truth, to the nearest point of scan 1: where it"
+    echo "exceeds 0.2 m the truth does not lay the scans onto each other (a"
+    echo "180° sensor that came back facing the other way sees another part"
+    echo "of the building), and no matcher can find it from the scans alone."
     for size in 256 128; do
         echo
         echo "## ${size}², \`N_θ\` = 360"

@@ -37,16 +37,18 @@ def load(out_dir, pair_files):
                 if not line:
                     continue
                 d = json.loads(line)
+                check = d.get("check", {})
                 truth.append(
                     (
                         math.degrees(d["dtheta"]),
-                        d.get("check", {}).get("overlap_gt") or 0.0,
+                        check.get("overlap_gt") or 0.0,
+                        check.get("res_gt"),
                     )
                 )
         with open(os.path.join(out_dir, name + ".out"), encoding="utf-8") as f:
             for line in f:
                 o = json.loads(line)
-                gt, overlap = truth[o["index"]]
+                gt, overlap, res_gt = truth[o["index"]]
                 est = o.get("dtheta_deg")
                 err = 180.0 if est is None else abs(wrap(est - gt))
                 rows.append(
@@ -54,6 +56,7 @@ def load(out_dir, pair_files):
                         "file": name,
                         "gt": gt,
                         "overlap_gt": overlap,
+                        "res_gt": math.inf if res_gt is None else res_gt,
                         "err": err,
                         "status": o["status"],
                         "confidence": o.get("confidence") or 0.0,
@@ -90,6 +93,14 @@ def main():
         ("overlap ≥ 0.5", [r for r in rows if r["overlap_gt"] >= 0.5]),
         ("overlap 0.3–0.5", [r for r in rows if 0.3 <= r["overlap_gt"] < 0.5]),
         ("overlap < 0.3", [r for r in rows if r["overlap_gt"] < 0.3]),
+        (
+            "\\|dθ\\| > 90°, the truth aligns the scans (`res_gt` ≤ 0.2 m)",
+            [r for r in rows if abs(r["gt"]) > 90.0 and r["res_gt"] <= 0.2],
+        ),
+        (
+            "\\|dθ\\| > 90°, it does not (`res_gt` > 0.2 m)",
+            [r for r in rows if abs(r["gt"]) > 90.0 and r["res_gt"] > 0.2],
+        ),
     ]
     print("| subset | pairs | within 2° | flagged | wrong among unflagged | median error within 2° |")
     print("|---|---|---|---|---|---|")
