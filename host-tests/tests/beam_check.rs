@@ -551,4 +551,28 @@ fn a_half_turn_that_only_brings_more_end_points_into_view_does_not_replace_the_a
             assert_eq!(judged.alpha, half_alpha);
         },
     );
+    // A sensor that sees the whole circle has every end point in view: the
+    // condition is the plain score's, and the half turn no longer fits.
+    let all_round = Laser::centred(359.0, 360, 30.0);
+    let (first, second) = (
+        all_round.scan(&corridor(), from),
+        all_round.scan(&corridor(), to),
+    );
+    for (turn, slide) in [(0.0, 0.0), (std::f64::consts::PI, 4.9)] {
+        let (alpha, t) = estimator_pose((d.0 + slide, d.1), dtheta + turn, cell);
+        let got = raster
+            .agreement_on_beams(
+                &all_round.as_scan(&first),
+                &all_round.as_scan(&second),
+                alpha,
+                t,
+            )
+            .unwrap();
+        assert_eq!(got.in_view, Score::ONE, "{turn}");
+        assert_eq!(
+            turn == 0.0,
+            got.score() > Score::from_num(0.9),
+            "{turn}: {got:?}"
+        );
+    }
 }
