@@ -63,13 +63,14 @@ impl Angle {
         (f64::from(s) * (360.0 / 4_294_967_296.0)) as f32
     }
 
-    /// From degrees (any value, wrapped). Non-finite input gives 0°.
-    pub fn from_degrees(degrees: f32) -> Angle {
+    /// From degrees (any value, wrapped). Non-finite input gives 0°. A
+    /// `const fn`: limits in degrees become angles at compile time.
+    pub const fn from_degrees(degrees: f32) -> Angle {
         if !degrees.is_finite() {
             return Angle::ZERO;
         }
-        let turns = f64::from(degrees) / 360.0;
-        let frac = turns - libm_floor(turns);
+        let turns = degrees as f64 / 360.0;
+        let frac = turns - floor(turns);
         Angle((frac * 4_294_967_296.0) as u64 as u32)
     }
 
@@ -90,7 +91,7 @@ impl Angle {
 }
 
 /// `floor` without `std`: exact for |v| < 2⁵².
-fn libm_floor(v: f64) -> f64 {
+const fn floor(v: f64) -> f64 {
     let t = v as i64 as f64;
     if t > v {
         t - 1.0
@@ -141,6 +142,22 @@ mod tests {
             assert!(back > -180.0 && back <= 180.0);
         }
         assert_eq!(Angle::from_degrees(f32::NAN), Angle::ZERO);
+    }
+
+    /// In `const` context as at run time: exact binary angles for exact
+    /// fractions of a turn, and `(d / 360) · 2³²` truncated for the rest
+    /// (the old `limit_angle` of the beam module, which it replaces).
+    #[test]
+    fn from_degrees_is_const() {
+        const QUARTER: Angle = Angle::from_degrees(90.0);
+        const BACK: Angle = Angle::from_degrees(-90.0);
+        const ONE: Angle = Angle::from_degrees(1.0);
+        assert_eq!(QUARTER, Angle::QUARTER_TURN);
+        assert_eq!(BACK, Angle(3 << 30));
+        assert_eq!(ONE, Angle((4_294_967_296.0f64 / 360.0) as u32));
+        assert_eq!(ONE, Angle::from_degrees(core::hint::black_box(1.0)));
+        const NOT_FINITE: Angle = Angle::from_degrees(f32::INFINITY);
+        assert_eq!(NOT_FINITE, Angle::ZERO);
     }
 
     #[test]

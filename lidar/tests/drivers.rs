@@ -1,7 +1,8 @@
 //! The drivers over `embedded-io` readers (features `io`, `async`) give the
 //! same revolutions as feeding the bytes by hand, whatever the chunking,
 //! and survive a reader error; the `scan` glue hands them to the
-//! estimator. Run with `cargo test -p hough-lidar --all-features`.
+//! estimator. The crate's tests enable the three features (a dev-dependency
+//! on itself), so `cargo test --workspace` runs these.
 #![cfg(all(feature = "io", feature = "async", feature = "scan"))]
 
 mod common;

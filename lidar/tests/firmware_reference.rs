@@ -4,8 +4,9 @@
 //! firmware, under QEMU on the Cortex-M4F and the Cortex-M0
 //! (`.ci/firmware.sh`), must reproduce that file bit for bit; this test
 //! checks that the host still does (rewrite the file with
-//! `UPDATE_LIDAR_HEADINGS=1 cargo test -p hough-lidar --all-features --test
-//! firmware_reference`).
+//! `UPDATE_LIDAR_HEADINGS=1 cargo test -p hough-lidar --test
+//! firmware_reference`; the crate's tests enable the feature `scan`, so
+//! `cargo test --workspace` runs this one).
 #![cfg(feature = "scan")]
 
 #[path = "../../examples/support/lidar_pipeline.rs"]

@@ -60,7 +60,7 @@
 //! with).
 
 use super::beam::{BeamEnd, ScanBeams};
-use super::refine::{for_each_end, limit_angle, FitPose, Segments, MAX_TURN};
+use super::refine::{for_each_end, FitPose, Segments, MAX_TURN};
 use super::sine::sin_cos;
 use super::{Raster, Scan};
 use crate::angle::Angle;
@@ -383,7 +383,7 @@ impl Raster {
         estimate: &Estimate,
     ) -> Option<BeamCheck> {
         // Other rotations: 5° apart, the estimator's separation of candidates.
-        let separation = limit_angle(5.0);
+        let separation = Angle::from_degrees(5.0);
         let mut chosen: Option<BeamPose> = None;
         let mut rival: Option<BeamPose> = None;
         let listed = estimate
@@ -481,7 +481,7 @@ const fn q16_score(value: f32) -> Score {
 }
 
 /// [`BEAM_RIVAL_MAX_ROTATION_DEG`] as a binary angle (2³² = one turn).
-const RIVAL_MAX_TURN: Angle = limit_angle(BEAM_RIVAL_MAX_ROTATION_DEG);
+const RIVAL_MAX_TURN: Angle = Angle::from_degrees(BEAM_RIVAL_MAX_ROTATION_DEG);
 
 /// A rival whose best start scores this much below the chosen pose is not
 /// refined: the refinement does not lift it that far.

@@ -70,13 +70,7 @@ pub const BEAM_FIT_MAX_ROTATION_DEG: f32 = 1.0;
 pub const BEAM_FIT_MAX_SHIFT_CELLS: f32 = 3.0;
 
 /// [`BEAM_FIT_MAX_ROTATION_DEG`] as a binary angle (2³² = one turn).
-pub(super) const MAX_TURN: Angle = limit_angle(BEAM_FIT_MAX_ROTATION_DEG);
-
-/// A limit of the module's constants, `0 ≤ degrees < 360`, as a binary
-/// angle (2³² = one turn), at compile time.
-pub(super) const fn limit_angle(degrees: f32) -> Angle {
-    Angle((degrees as f64 / 360.0 * 4_294_967_296.0) as u32)
-}
+pub(super) const MAX_TURN: Angle = Angle::from_degrees(BEAM_FIT_MAX_ROTATION_DEG);
 /// [`BEAM_FIT_MAX_SHIFT_CELLS`] in Q16 cells.
 const MAX_SHIFT_Q16: i64 = (BEAM_FIT_MAX_SHIFT_CELLS as f64 * 65_536.0) as i64;
 /// Width of a bin of the residual histogram, metres (rounded down to a
