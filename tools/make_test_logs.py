@@ -6,7 +6,8 @@ from the shared scan-pair file `seattle-corrected_pairs.jsonl` (its
 `sequential` pairs chain scan k to scan k + 1). The files are written by
 programs independent of this project: a CARMEN log by hand-formatting the
 real format (and Python's gzip), a ROS 2 bag by the `mcap` and
-`mcap-ros2-support` packages (`pip install mcap mcap-ros2-support`).
+`mcap-ros2-support` packages (`pip install mcap mcap-ros2-support`), ROS 1
+bags by the `rosbags` package (`pip install rosbags`).
 
 - `seattle-excerpt.log` (and `.log.gz`): CARMEN, one `FLASER` line per scan,
   in the format of a Radish `-corrected` log: `x y θ` is the corrected pose
@@ -20,6 +21,10 @@ real format (and Python's gzip), a ROS 2 bag by the `mcap` and
   (`std_msgs/msg/String`), zstd chunks as the writer's default.
 - `nan-scan.mcap`: three of those scans, the second with every range NaN
   (bad input for the tests).
+- `seattle-bag.bag` (bz2 chunks) and `seattle-bag-lz4.bag` (lz4 chunks):
+  the same messages in ROS 1 bags (format 2.0, `sensor_msgs/LaserScan`,
+  `nav_msgs/Odometry`, `std_msgs/String`; ROS 1 headers carry a `seq` and
+  a `secs`/`nsecs` stamp), chunks of about 8 KiB.
 - `*.pairs.jsonl`: the pair-file lines of the same consecutive scans,
   copied verbatim, so the tests compare `log` with `scans`.
 
@@ -43,6 +48,8 @@ import json
 import math
 import os
 import sys
+
+import numpy as np
 
 PAIRS = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data",
                      "seattle-corrected_pairs.jsonl")
@@ -221,6 +228,67 @@ def bag(scans, path, nan_scan=None):
         w.finish()
 
 
+def ros1_bag(scans, path, compression):
+    """The messages of `bag` in a ROS 1 bag, written by `rosbags`."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    T = store.types
+    Time = T["builtin_interfaces/msg/Time"]
+    Header = T["std_msgs/msg/Header"]
+
+    def ros_time(t):
+        s = stamp(t)
+        return Time(sec=s["sec"], nanosec=s["nanosec"])
+
+    def vector(x, y, z):
+        return T["geometry_msgs/msg/Vector3"](x=x, y=y, z=z)
+
+    if os.path.exists(path):
+        os.remove(path)
+    w = Writer(path)
+    w.set_compression(compression)
+    w.chunk_threshold = 8192  # small chunks: a truncated copy keeps whole ones
+    with w:
+        scan_c = w.add_connection("/scan", "sensor_msgs/msg/LaserScan", typestore=store)
+        odom_c = w.add_connection("/odom", "nav_msgs/msg/Odometry", typestore=store)
+        chat_c = w.add_connection("/chatter", "std_msgs/msg/String", typestore=store)
+        for i, (scan, _, (ox, oy, ot)) in enumerate(scans):
+            t = scan["t"] if scan["t"] > 0 else float(i + 1)
+            ns = int(round(t * 1e9))
+            n = len(scan["ranges"])
+            odom = T["nav_msgs/msg/Odometry"](
+                header=Header(seq=i, stamp=ros_time(t), frame_id="odom"),
+                child_frame_id="base_link",
+                pose=T["geometry_msgs/msg/PoseWithCovariance"](
+                    pose=T["geometry_msgs/msg/Pose"](
+                        position=T["geometry_msgs/msg/Point"](x=ox, y=oy, z=0.0),
+                        orientation=T["geometry_msgs/msg/Quaternion"](
+                            x=0.0, y=0.0, z=math.sin(ot / 2), w=math.cos(ot / 2))),
+                    covariance=np.zeros(36)),
+                twist=T["geometry_msgs/msg/TwistWithCovariance"](
+                    twist=T["geometry_msgs/msg/Twist"](
+                        linear=vector(0.0, 0.0, 0.0), angular=vector(0.0, 0.0, 0.0)),
+                    covariance=np.zeros(36)))
+            w.write(odom_c, ns - 1000, store.serialize_ros1(odom, "nav_msgs/msg/Odometry"))
+            laser = T["sensor_msgs/msg/LaserScan"](
+                header=Header(seq=i, stamp=ros_time(t), frame_id="laser"),
+                angle_min=scan["angle_min"],
+                angle_max=scan["angle_min"] + (n - 1) * scan["angle_increment"],
+                angle_increment=scan["angle_increment"],
+                time_increment=0.0,
+                scan_time=0.0,
+                range_min=0.0,
+                range_max=scan["max_range"],
+                ranges=np.array([float(r) for r in scan["ranges"]], dtype=np.float32),
+                intensities=np.array([], dtype=np.float32))
+            w.write(scan_c, ns, store.serialize_ros1(laser, "sensor_msgs/msg/LaserScan"))
+            if i % 4 == 0:
+                text = T["std_msgs/msg/String"](data=f"scan {i}")
+                w.write(chat_c, ns + 1000, store.serialize_ros1(text, "std_msgs/msg/String"))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--pairs", default=PAIRS, help="seattle-corrected_pairs.jsonl")
@@ -235,6 +303,8 @@ def main():
         with open(os.path.join(a.all, f"{name}.pairs.jsonl"), "w") as f:
             f.write("\n".join(lines) + "\n")
         bag(scans, os.path.join(a.all, f"{name}.mcap"))
+        from rosbags.rosbag1 import Writer
+        ros1_bag(scans, os.path.join(a.all, f"{name}.bag"), Writer.CompressionFormat.LZ4)
         print(f"{len(scans)} scans to {a.all}", file=sys.stderr)
         return
     os.makedirs(OUT, exist_ok=True)
@@ -249,6 +319,9 @@ def main():
     scans, lines = chain(a.pairs, 40, 12)
     bag(scans, os.path.join(OUT, "seattle-bag.mcap"))
     bag(scans[:3], os.path.join(OUT, "nan-scan.mcap"), nan_scan=1)
+    from rosbags.rosbag1 import Writer
+    ros1_bag(scans, os.path.join(OUT, "seattle-bag.bag"), Writer.CompressionFormat.BZ2)
+    ros1_bag(scans, os.path.join(OUT, "seattle-bag-lz4.bag"), Writer.CompressionFormat.LZ4)
     with open(os.path.join(OUT, "seattle-bag.pairs.jsonl"), "w") as f:
         f.write("\n".join(lines) + "\n")
     print(f"wrote {OUT}", file=sys.stderr)

@@ -621,6 +621,25 @@ fn damaged_recordings_never_panic_the_readers() {
         damaged[at] = (next() & 0xff) as u8;
         read_bag(&damaged);
     }
+    // The same for the ROS 1 bag (bz2 chunks).
+    let ros1 = std::fs::read(logs().join("seattle-bag.bag")).expect("bag");
+    let read_ros1 = |bytes: &[u8]| {
+        for topic in ["/scan", "/odom"] {
+            let reader =
+                hough_heading_cli::log::ros1::BagReader::new(bytes, "bag", topic, Some("/odom"));
+            for _ in reader.take(100) {}
+        }
+        let _ = hough_heading_cli::log::ros1::topics(bytes, "bag");
+    };
+    for cut in (0..ros1.len()).step_by(53) {
+        read_ros1(&ros1[..cut]);
+    }
+    for _ in 0..400 {
+        let mut damaged = ros1.clone();
+        let at = (next() % damaged.len() as u64) as usize;
+        damaged[at] = (next() & 0xff) as u8;
+        read_ros1(&damaged);
+    }
     let text = std::fs::read_to_string(logs().join("seattle-excerpt.log")).expect("log");
     let geometry = FlaserGeometry {
         max_range: 81.91,
@@ -655,6 +674,99 @@ fn damaged_recordings_never_panic_the_readers() {
             let damaged = f.join(" ");
             let reader = CarmenReader::new(damaged.as_bytes(), geometry);
             assert!(reader.count() <= 1, "line {i}");
+        }
+    }
+}
+
+/// ROS 1 bags of the same messages as the MCAP bag (written by the
+/// `rosbags` Python package, bz2 and lz4 chunks) give the same output, line
+/// for line: the same scans, times and odometry, read by another container
+/// and another serialization; their topic is found without `--topic`.
+#[test]
+fn ros1_bags_read_like_the_mcap_bag() {
+    let mcap = tool(&["log", "-q", &data("seattle-bag.mcap"), "--prior", "odom"]);
+    assert_eq!(mcap.status.code(), Some(0), "{}", stderr(&mcap));
+    for name in ["seattle-bag.bag", "seattle-bag-lz4.bag"] {
+        let ros1 = tool(&["log", "-q", &data(name), "--prior", "odom"]);
+        assert_eq!(ros1.status.code(), Some(0), "{name}: {}", stderr(&ros1));
+        assert!(
+            stderr(&ros1).contains("using /scan, the bag's only sensor_msgs/LaserScan topic"),
+            "{}",
+            stderr(&ros1)
+        );
+        assert_eq!(stdout(&ros1), stdout(&mcap), "{name}");
+        // `--format ros1` names what auto-detection found.
+        let named = tool(&[
+            "log",
+            "-q",
+            &data(name),
+            "--format",
+            "ros1",
+            "--prior",
+            "odom",
+        ]);
+        assert_eq!(stdout(&named), stdout(&mcap), "{name}");
+    }
+    assert_same_as_scans(
+        &["log", "-q", &data("seattle-bag.bag"), "--topic", "/scan"],
+        "seattle-bag.pairs.jsonl",
+    );
+}
+
+#[test]
+fn ros1_bag_topics_and_types_are_checked() {
+    let unknown = tool(&["log", &data("seattle-bag.bag"), "--topic", "/nope"]);
+    assert_eq!(unknown.status.code(), Some(2));
+    let e = stderr(&unknown);
+    for t in [
+        "no messages on topic /nope",
+        "/scan  (sensor_msgs/LaserScan, 12 messages)",
+        "/odom  (nav_msgs/Odometry, 12 messages)",
+        "/chatter  (std_msgs/String, 3 messages)",
+    ] {
+        assert!(e.contains(t), "{t} not in {e}");
+    }
+    let o = tool(&["log", &data("seattle-bag.bag"), "--topic", "/chatter"]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    assert!(
+        e.contains("on topic /chatter is std_msgs/String")
+            && e.contains("expected sensor_msgs/LaserScan"),
+        "{e}"
+    );
+    let o = tool(&["log", &data("seattle-bag.bag"), "--odom-topic", "/scan"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("topic /scan carries sensor_msgs/LaserScan, not nav_msgs/Odometry"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn a_truncated_ros1_bag_keeps_the_pairs_before_the_damage() {
+    let bytes = std::fs::read(logs().join("seattle-bag.bag")).expect("bag");
+    for (cut, name) in [(bytes.len() * 7 / 10, "cut70.bag"), (20, "cut20.bag")] {
+        let path = scratch(name);
+        std::fs::write(&path, &bytes[..cut]).expect("write");
+        let o = tool(&["log", "-q", &path.display().to_string(), "--topic", "/scan"]);
+        let e = stderr(&o);
+        assert!(!e.contains("panicked"), "{e}");
+        assert!(e.contains(name), "{e}");
+        if cut > 20 {
+            // Whole chunks before the cut are read; the damage is one failed
+            // record after them.
+            assert_eq!(o.status.code(), Some(1), "{e}");
+            assert!(e.contains("unreadable ROS 1 bag"), "{e}");
+            let lines = json_lines(&o);
+            assert!(
+                !lines.is_empty() && lines.len() < 11,
+                "{} pairs",
+                lines.len()
+            );
+        } else {
+            assert_eq!(o.status.code(), Some(2), "{e}");
+            assert!(e.contains("not a readable ROS 1 bag"), "{e}");
         }
     }
 }

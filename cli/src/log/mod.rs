@@ -1,5 +1,5 @@
 //! `log FILE`: the motion between the scans of a robot's recording, a CARMEN
-//! log (plain or `.gz`) or a ROS 2 bag in MCAP.
+//! log (plain or `.gz`), a ROS 2 bag in MCAP or a ROS 1 bag.
 //!
 //! The recording is streamed: only the scans a pair still needs are kept
 //! (one for consecutive pairs, the reference scan, or the window). Each pair
@@ -13,12 +13,13 @@
 
 pub mod carmen;
 pub mod evo;
+pub mod ros1;
 pub mod ros2;
 pub mod trajectory;
 
-use std::collections::VecDeque;
+use std::collections::{BTreeMap, VecDeque};
 use std::fs::File;
-use std::io::{self, BufRead, BufReader, BufWriter, Read, Write};
+use std::io::{self, BufRead, BufReader, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -145,12 +146,14 @@ impl RecordError {
 /// The format of a recording.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Format {
-    /// By content: MCAP magic bytes, otherwise CARMEN.
+    /// By content: MCAP or ROS 1 bag magic bytes, otherwise CARMEN.
     Auto,
     /// CARMEN log (`FLASER`, `ROBOTLASER1`, `ODOM` lines), plain or gzip.
     Carmen,
     /// ROS 2 bag in MCAP.
     Mcap,
+    /// ROS 1 bag (format 2.0; chunks uncompressed, bz2 or lz4).
+    Ros1,
     /// Raw LDRobot LD06 / LD19 / STL-19P capture: one scan per revolution.
     Ld06,
     /// Raw Slamtec RPLIDAR capture (standard scan): one scan per revolution.
@@ -186,17 +189,17 @@ pub enum PriorArg {
 #[derive(Clone, Debug, Args)]
 pub struct LogArgs {
     /// The recording: a CARMEN log (`.gz` read directly), a ROS 2 bag
-    /// (`.mcap`), or a raw lidar capture (`--format ld06|rplidar|ydlidar|xv11`).
+    /// (`.mcap`), a ROS 1 bag (`.bag`), or a raw lidar capture (`--format
+    /// ld06|rplidar|ydlidar|xv11`).
     pub file: PathBuf,
     /// Input format.
     #[arg(long, value_enum, default_value_t = Format::Auto)]
     pub format: Format,
-    /// MCAP: the `sensor_msgs/msg/LaserScan` topic (without it, the bag's
-    /// topics are listed).
+    /// Bags: the `LaserScan` topic (without it, the bag's only one, or the
+    /// bag's topics are listed).
     #[arg(long)]
     pub topic: Option<String>,
-    /// MCAP: the `nav_msgs/msg/Odometry` topic (default `/odom` when the bag
-    /// has it).
+    /// Bags: the `Odometry` topic (default `/odom` when the bag has it).
     #[arg(long, value_name = "TOPIC")]
     pub odom_topic: Option<String>,
     /// Which pairs.
@@ -582,6 +585,7 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
         .map_err(|e| Fatal::io(format!("{file}: cannot read: {e}")))?;
     let format = match args.format {
         Format::Auto if head.starts_with(MCAP_MAGIC) => Format::Mcap,
+        Format::Auto if head.starts_with(ros1::MAGIC) => Format::Ros1,
         Format::Auto => Format::Carmen,
         f => f,
     };
@@ -630,22 +634,33 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
             eprintln!("hough-heading: {file}: {}", reader.report());
             scans
         }
-        Format::Mcap => {
-            let (topic, odom_topic) = choose_topics(args, &file, input)?;
+        Format::Mcap | Format::Ros1 => {
+            let ros1 = format == Format::Ros1;
+            let (topics, types) = if ros1 {
+                (ros1::topics(input, &file)?, BagTypes::ROS1)
+            } else {
+                (ros2::topics(input, &file)?, BagTypes::ROS2)
+            };
+            let (topic, odom_topic) = choose_topics(args, &file, &topics, types)?;
             bar.reset();
             let input = open(&args.file, &bar)?;
-            let events =
-                ros2::BagReader::new(input, &file, &topic, odom_topic.as_deref()).map(|item| {
-                    item.map(|event| {
-                        event.map(|e| match (e, laser_offset) {
-                            (Event::Scan(mut s), Some(o)) => {
-                                s.record.laser_offset = o;
-                                Event::Scan(s)
-                            }
-                            (e, _) => e,
-                        })
+            let odom_topic = odom_topic.as_deref();
+            let events: Box<dyn Iterator<Item = ros2::BagItem>> = if ros1 {
+                Box::new(ros1::BagReader::new(input, &file, &topic, odom_topic))
+            } else {
+                Box::new(ros2::BagReader::new(input, &file, &topic, odom_topic))
+            };
+            let events = events.map(|item| {
+                item.map(|event| {
+                    event.map(|e| match (e, laser_offset) {
+                        (Event::Scan(mut s), Some(o)) => {
+                            s.record.laser_offset = o;
+                            Event::Scan(s)
+                        }
+                        (e, _) => e,
                     })
-                });
+                })
+            });
             stream(&mut run, events)?
         }
     };
@@ -706,49 +721,70 @@ impl LogArgs {
     }
 }
 
-/// The scan topic (checked to exist; without `--topic`, the bag's only
-/// `LaserScan` topic, named on stderr) and the odometry topic, from one pass
-/// over the bag.
+/// The message types a bag names its scans and odometry by.
+#[derive(Clone, Copy, Debug)]
+pub struct BagTypes {
+    /// The laser scan's type.
+    pub scan: &'static str,
+    /// The odometry's type.
+    pub odometry: &'static str,
+}
+
+impl BagTypes {
+    /// ROS 2 (MCAP).
+    pub const ROS2: Self = Self {
+        scan: ros2::LASER_SCAN,
+        odometry: ros2::ODOMETRY,
+    };
+    /// ROS 1.
+    pub const ROS1: Self = Self {
+        scan: ros1::LASER_SCAN,
+        odometry: ros1::ODOMETRY,
+    };
+}
+
+/// The scan topic (`--topic`, or the bag's only scan topic) and the
+/// odometry topic (`--odom-topic`, or `/odom` when it carries odometry) of a
+/// bag whose `topics` were listed.
 ///
 /// # Errors
-/// A usage error listing the bag's topics when the scan topic is missing
-/// or not in the bag, or the odometry topic is of another type.
+/// A usage error listing the bag's topics when the scan topic is missing,
+/// ambiguous or unknown, or the odometry topic unknown or of another type.
 pub fn choose_topics(
     args: &LogArgs,
     file: &str,
-    input: impl Read,
+    topics: &BTreeMap<String, ros2::TopicInfo>,
+    types: BagTypes,
 ) -> Result<(String, Option<String>), Fatal> {
-    let topics = ros2::topics(input, file)?;
     let topic = match &args.topic {
         Some(t) if topics.contains_key(t) => t.clone(),
-        None => match ros2::only_scan_topic(&topics) {
+        None => match ros2::only_topic_of(topics, types.scan) {
             Some(t) => {
                 eprintln!(
                     "hough-heading: {file}: using {t}, the bag's only {} topic",
-                    ros2::LASER_SCAN
+                    types.scan
                 );
                 t
             }
-            None => return Err(ros2::topic_error(file, None, &topics)),
+            None => return Err(ros2::topic_error(file, None, topics)),
         },
-        other => return Err(ros2::topic_error(file, other.as_deref(), &topics)),
+        other => return Err(ros2::topic_error(file, other.as_deref(), topics)),
     };
     // A scan topic of another type fails at its first message (named).
     let odom = match &args.odom_topic {
         Some(t) => match topics.get(t) {
-            Some(i) if i.schema == ros2::ODOMETRY => Some(t.clone()),
+            Some(i) if i.schema == types.odometry => Some(t.clone()),
             Some(i) => {
                 return Err(Fatal::usage(format!(
                     "{file}: topic {t} carries {}, not {}",
-                    i.schema,
-                    ros2::ODOMETRY
+                    i.schema, types.odometry
                 )))
             }
-            None => return Err(ros2::topic_error(file, Some(t), &topics)),
+            None => return Err(ros2::topic_error(file, Some(t), topics)),
         },
         None => topics
             .iter()
-            .find(|(t, i)| t.as_str() == "/odom" && i.schema == ros2::ODOMETRY)
+            .find(|(t, i)| t.as_str() == "/odom" && i.schema == types.odometry)
             .map(|(t, _)| t.clone()),
     };
     Ok((topic, odom))

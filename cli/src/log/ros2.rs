@@ -130,6 +130,35 @@ fn check_string(data: &[u8], offset: usize) -> Result<usize, String> {
 fn decode_scan(data: &[u8]) -> Result<(LogScan, f64), String> {
     check_string(data, 8)?;
     let msg: LaserScanMsg = cdr::deserialize(data).map_err(|e| format!("not a LaserScan: {e}"))?;
+    scan_of(LaserFields {
+        time: msg.header.stamp.seconds(),
+        angle_min: msg.angle_min,
+        angle_increment: msg.angle_increment,
+        range_min: msg.range_min,
+        range_max: msg.range_max,
+        ranges: msg.ranges,
+    })
+}
+
+/// What a `LaserScan` message (ROS 1 or 2) gives the scan.
+pub(super) struct LaserFields {
+    /// Header stamp, seconds.
+    pub(super) time: f64,
+    /// Angle of the first beam, radians.
+    pub(super) angle_min: f32,
+    /// Angle between beams, radians.
+    pub(super) angle_increment: f32,
+    /// Shortest valid range, metres.
+    pub(super) range_min: f32,
+    /// Longest valid range, metres.
+    pub(super) range_max: f32,
+    /// Ranges, metres.
+    pub(super) ranges: Vec<f32>,
+}
+
+/// The scan of a `LaserScan` message and its stamp (REP 117: a range that
+/// is not finite or below `range_min` is no reading).
+pub(super) fn scan_of(msg: LaserFields) -> Result<(LogScan, f64), String> {
     for (name, v) in [
         ("angle_min", msg.angle_min),
         ("angle_increment", msg.angle_increment),
@@ -158,7 +187,6 @@ fn decode_scan(data: &[u8]) -> Result<(LogScan, f64), String> {
         .iter()
         .map(|&r| (r.is_finite() && r >= range_min).then_some(r))
         .collect();
-    let time = msg.header.stamp.seconds();
     Ok((
         LogScan {
             record: ScanRecord {
@@ -168,12 +196,12 @@ fn decode_scan(data: &[u8]) -> Result<(LogScan, f64), String> {
                 max_range: msg.range_max,
                 laser_offset: [0.0; 3],
             },
-            time: Some(time),
+            time: Some(msg.time),
             odom: None,
             log_pose: None,
             name: String::new(),
         },
-        time,
+        msg.time,
     ))
 }
 
@@ -183,16 +211,22 @@ fn decode_odometry(data: &[u8]) -> Result<(Pose, f64), String> {
     let msg: OdometryMsg =
         cdr::deserialize(data).map_err(|e| format!("not an Odometry message: {e}"))?;
     let q = &msg.orientation;
-    let theta = (2.0 * (q.w * q.z + q.x * q.y)).atan2(1.0 - 2.0 * (q.y * q.y + q.z * q.z));
-    let pose = Pose {
-        x: msg.position.x,
-        y: msg.position.y,
-        theta,
-    };
+    let pose = odometry_pose((msg.position.x, msg.position.y), [q.x, q.y, q.z, q.w])?;
+    Ok((pose, msg.header.stamp.seconds()))
+}
+
+/// The planar pose of an odometry message: its position's `x`, `y` and the
+/// yaw of its orientation quaternion `[x, y, z, w]`.
+pub(super) fn odometry_pose(
+    (x, y): (f64, f64),
+    [qx, qy, qz, qw]: [f64; 4],
+) -> Result<Pose, String> {
+    let theta = (2.0 * (qw * qz + qx * qy)).atan2(1.0 - 2.0 * (qy * qy + qz * qz));
+    let pose = Pose { x, y, theta };
     if !(pose.x.is_finite() && pose.y.is_finite() && pose.theta.is_finite()) {
         return Err("pose is not finite".into());
     }
-    Ok((pose, msg.header.stamp.seconds()))
+    Ok(pose)
 }
 
 /// One topic of a bag: its type and message count.
@@ -249,10 +283,10 @@ pub fn topic_error(file: &str, asked: Option<&str>, topics: &BTreeMap<String, To
     Fatal::usage(format!("{head}\n{}", list.join("\n")))
 }
 
-/// The bag's only `LaserScan` topic, if it has exactly one (`log` then
-/// needs no `--topic`).
-pub fn only_scan_topic(topics: &BTreeMap<String, TopicInfo>) -> Option<String> {
-    let mut scans = topics.iter().filter(|(_, i)| i.schema == LASER_SCAN);
+/// The bag's only topic of message type `schema`, if it has exactly one
+/// (`log` then needs no `--topic` for its scans).
+pub fn only_topic_of(topics: &BTreeMap<String, TopicInfo>, schema: &str) -> Option<String> {
+    let mut scans = topics.iter().filter(|(_, i)| i.schema == schema);
     match (scans.next(), scans.next()) {
         (Some((t, _)), None) => Some(t.clone()),
         _ => None,
