@@ -289,6 +289,67 @@ def ros1_bag(scans, path, compression):
                 w.write(chat_c, ns + 1000, store.serialize_ros1(text, "std_msgs/msg/String"))
 
 
+def db3_bag(scans, path):
+    """The messages of `bag` in a ROS 2 bag in SQLite (a directory with
+    `metadata.yaml` and one `.db3` file), written by `rosbags`."""
+    import shutil
+
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    T = store.types
+    Time = T["builtin_interfaces/msg/Time"]
+    Header = T["std_msgs/msg/Header"]
+
+    def ros_time(t):
+        s = stamp(t)
+        return Time(sec=s["sec"], nanosec=s["nanosec"])
+
+    def vector(x, y, z):
+        return T["geometry_msgs/msg/Vector3"](x=x, y=y, z=z)
+
+    if os.path.exists(path):
+        shutil.rmtree(path)
+    with Writer(path, version=8, storage_plugin=StoragePlugin.SQLITE3) as w:
+        scan_c = w.add_connection("/scan", "sensor_msgs/msg/LaserScan", typestore=store)
+        odom_c = w.add_connection("/odom", "nav_msgs/msg/Odometry", typestore=store)
+        chat_c = w.add_connection("/chatter", "std_msgs/msg/String", typestore=store)
+        for i, (scan, _, (ox, oy, ot)) in enumerate(scans):
+            t = scan["t"] if scan["t"] > 0 else float(i + 1)
+            ns = int(round(t * 1e9))
+            n = len(scan["ranges"])
+            odom = T["nav_msgs/msg/Odometry"](
+                header=Header(stamp=ros_time(t), frame_id="odom"),
+                child_frame_id="base_link",
+                pose=T["geometry_msgs/msg/PoseWithCovariance"](
+                    pose=T["geometry_msgs/msg/Pose"](
+                        position=T["geometry_msgs/msg/Point"](x=ox, y=oy, z=0.0),
+                        orientation=T["geometry_msgs/msg/Quaternion"](
+                            x=0.0, y=0.0, z=math.sin(ot / 2), w=math.cos(ot / 2))),
+                    covariance=np.zeros(36)),
+                twist=T["geometry_msgs/msg/TwistWithCovariance"](
+                    twist=T["geometry_msgs/msg/Twist"](
+                        linear=vector(0.0, 0.0, 0.0), angular=vector(0.0, 0.0, 0.0)),
+                    covariance=np.zeros(36)))
+            w.write(odom_c, ns - 1000, store.serialize_cdr(odom, "nav_msgs/msg/Odometry"))
+            laser = T["sensor_msgs/msg/LaserScan"](
+                header=Header(stamp=ros_time(t), frame_id="laser"),
+                angle_min=scan["angle_min"],
+                angle_max=scan["angle_min"] + (n - 1) * scan["angle_increment"],
+                angle_increment=scan["angle_increment"],
+                time_increment=0.0,
+                scan_time=0.0,
+                range_min=0.0,
+                range_max=scan["max_range"],
+                ranges=np.array([float(r) for r in scan["ranges"]], dtype=np.float32),
+                intensities=np.array([], dtype=np.float32))
+            w.write(scan_c, ns, store.serialize_cdr(laser, "sensor_msgs/msg/LaserScan"))
+            if i % 4 == 0:
+                text = T["std_msgs/msg/String"](data=f"scan {i}")
+                w.write(chat_c, ns + 1000, store.serialize_cdr(text, "std_msgs/msg/String"))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--pairs", default=PAIRS, help="seattle-corrected_pairs.jsonl")
@@ -305,6 +366,7 @@ def main():
         bag(scans, os.path.join(a.all, f"{name}.mcap"))
         from rosbags.rosbag1 import Writer
         ros1_bag(scans, os.path.join(a.all, f"{name}.bag"), Writer.CompressionFormat.LZ4)
+        db3_bag(scans, os.path.join(a.all, f"{name}-db3"))
         print(f"{len(scans)} scans to {a.all}", file=sys.stderr)
         return
     os.makedirs(OUT, exist_ok=True)
@@ -322,6 +384,7 @@ def main():
     from rosbags.rosbag1 import Writer
     ros1_bag(scans, os.path.join(OUT, "seattle-bag.bag"), Writer.CompressionFormat.BZ2)
     ros1_bag(scans, os.path.join(OUT, "seattle-bag-lz4.bag"), Writer.CompressionFormat.LZ4)
+    db3_bag(scans, os.path.join(OUT, "seattle-bag-db3"))
     with open(os.path.join(OUT, "seattle-bag.pairs.jsonl"), "w") as f:
         f.write("\n".join(lines) + "\n")
     print(f"wrote {OUT}", file=sys.stderr)

@@ -84,7 +84,7 @@ pub enum Command {
     /// Scan pairs for the firmware (`export`), and its results checked (`check`).
     Mcu(mcu::McuArgs),
     /// Motion between the scans of a recording: a CARMEN log (`.gz` too), a
-    /// ROS 1 bag or a ROS 2 bag (MCAP); one JSON line per scan pair.
+    /// ROS 1 bag or a ROS 2 bag (MCAP or SQLite); one JSON line per scan pair.
     Log(Box<log::LogArgs>),
     /// A raw lidar capture (LD06, RPLIDAR, YDLIDAR bytes) as a CARMEN log,
     /// one `ROBOTLASER1` line per revolution.

@@ -770,3 +770,61 @@ fn a_truncated_ros1_bag_keeps_the_pairs_before_the_damage() {
         }
     }
 }
+
+/// A ROS 2 bag in SQLite of the same messages (written by the `rosbags`
+/// Python package), given as its directory or its `.db3` file, gives the
+/// MCAP bag's output line for line.
+#[test]
+fn ros2_sqlite_bags_read_like_the_mcap_bag() {
+    let mcap = tool(&["log", "-q", &data("seattle-bag.mcap"), "--prior", "odom"]);
+    assert_eq!(mcap.status.code(), Some(0), "{}", stderr(&mcap));
+    let dir = data("seattle-bag-db3");
+    let file = data("seattle-bag-db3/seattle-bag-db3.db3");
+    for path in [&dir, &file] {
+        let o = tool(&["log", "-q", path, "--prior", "odom"]);
+        assert_eq!(o.status.code(), Some(0), "{path}: {}", stderr(&o));
+        assert_eq!(stdout(&o), stdout(&mcap), "{path}");
+    }
+    let named = tool(&["log", "-q", &dir, "--format", "db3", "--topic", "/scan"]);
+    assert_eq!(named.status.code(), Some(0), "{}", stderr(&named));
+    assert_eq!(json_lines(&named).len(), 11);
+}
+
+#[test]
+fn ros2_sqlite_bag_errors_are_named() {
+    let unknown = tool(&["log", &data("seattle-bag-db3"), "--topic", "/nope"]);
+    assert_eq!(unknown.status.code(), Some(2));
+    let e = stderr(&unknown);
+    for t in [
+        "no messages on topic /nope",
+        "/scan  (sensor_msgs/msg/LaserScan, 12 messages)",
+        "/chatter  (std_msgs/msg/String, 3 messages)",
+    ] {
+        assert!(e.contains(t), "{t} not in {e}");
+    }
+    let o = tool(&["log", &data("seattle-bag-db3"), "--topic", "/chatter"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("on topic /chatter is std_msgs/msg/String (cdr encoding); expected"),
+        "{}",
+        stderr(&o)
+    );
+    // A directory that is no bag, and a truncated database.
+    let o = tool(&["log", &logs().display().to_string()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("a directory without a .db3 file"),
+        "{}",
+        stderr(&o)
+    );
+    let bytes = std::fs::read(logs().join("seattle-bag-db3/seattle-bag-db3.db3")).expect("db3");
+    let cut = scratch("cut.db3");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).expect("write");
+    let o = tool(&["log", &cut.display().to_string(), "--topic", "/scan"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("not a readable ROS 2 bag in SQLite") && !e.contains("panicked"),
+        "{e}"
+    );
+}

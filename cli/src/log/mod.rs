@@ -1,5 +1,5 @@
 //! `log FILE`: the motion between the scans of a robot's recording, a CARMEN
-//! log (plain or `.gz`), a ROS 2 bag in MCAP or a ROS 1 bag.
+//! log (plain or `.gz`), a ROS 2 bag (MCAP or SQLite) or a ROS 1 bag.
 //!
 //! The recording is streamed: only the scans a pair still needs are kept
 //! (one for consecutive pairs, the reference scan, or the window). Each pair
@@ -12,6 +12,7 @@
 //! scan.
 
 pub mod carmen;
+pub mod db3;
 pub mod evo;
 pub mod ros1;
 pub mod ros2;
@@ -146,7 +147,8 @@ impl RecordError {
 /// The format of a recording.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Format {
-    /// By content: MCAP or ROS 1 bag magic bytes, otherwise CARMEN.
+    /// By content: a directory or SQLite file is a ROS 2 bag in SQLite, MCAP
+    /// and ROS 1 bags by their magic bytes, anything else CARMEN.
     Auto,
     /// CARMEN log (`FLASER`, `ROBOTLASER1`, `ODOM` lines), plain or gzip.
     Carmen,
@@ -154,6 +156,9 @@ pub enum Format {
     Mcap,
     /// ROS 1 bag (format 2.0; chunks uncompressed, bz2 or lz4).
     Ros1,
+    /// ROS 2 bag in SQLite: its directory (`metadata.yaml`, `.db3` files)
+    /// or one `.db3` file.
+    Db3,
     /// Raw LDRobot LD06 / LD19 / STL-19P capture: one scan per revolution.
     Ld06,
     /// Raw Slamtec RPLIDAR capture (standard scan): one scan per revolution.
@@ -189,7 +194,8 @@ pub enum PriorArg {
 #[derive(Clone, Debug, Args)]
 pub struct LogArgs {
     /// The recording: a CARMEN log (`.gz` read directly), a ROS 2 bag
-    /// (`.mcap`), a ROS 1 bag (`.bag`), or a raw lidar capture (`--format
+    /// (`.mcap`, or the directory of one in SQLite, or its `.db3` file), a
+    /// ROS 1 bag (`.bag`), or a raw lidar capture (`--format
     /// ld06|rplidar|ydlidar|xv11`).
     pub file: PathBuf,
     /// Input format.
@@ -579,16 +585,28 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
         }
         bar
     };
-    let mut input = open(&args.file, &bar)?;
+    // A directory is a ROS 2 bag in SQLite (`metadata.yaml` and `.db3` files).
+    let directory = args.file.is_dir();
+    let mut input: Box<dyn BufRead> = if directory {
+        Box::new(io::empty())
+    } else {
+        open(&args.file, &bar)?
+    };
     let head = input
         .fill_buf()
         .map_err(|e| Fatal::io(format!("{file}: cannot read: {e}")))?;
     let format = match args.format {
+        Format::Auto if directory || head.starts_with(db3::MAGIC) => Format::Db3,
         Format::Auto if head.starts_with(MCAP_MAGIC) => Format::Mcap,
         Format::Auto if head.starts_with(ros1::MAGIC) => Format::Ros1,
         Format::Auto => Format::Carmen,
         f => f,
     };
+    if directory && format != Format::Db3 {
+        return Err(Fatal::usage(format!(
+            "{file}: a directory; only a ROS 2 bag in SQLite (--format db3) is one"
+        )));
+    }
     let mut run = Run {
         args,
         file: file.clone(),
@@ -633,6 +651,23 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
             let scans = stream(&mut run, reader.by_ref().map(Ok))?;
             eprintln!("hough-heading: {file}: {}", reader.report());
             scans
+        }
+        Format::Db3 => {
+            let files = db3::bag_files(&args.file)?;
+            let topics = db3::topics(&files)?;
+            let (topic, odom_topic) = choose_topics(args, &file, &topics, BagTypes::ROS2)?;
+            let events = db3::BagReader::new(files, &topic, odom_topic.as_deref()).map(|item| {
+                item.map(|event| {
+                    event.map(|e| match (e, laser_offset) {
+                        (Event::Scan(mut s), Some(o)) => {
+                            s.record.laser_offset = o;
+                            Event::Scan(s)
+                        }
+                        (e, _) => e,
+                    })
+                })
+            });
+            stream(&mut run, events)?
         }
         Format::Mcap | Format::Ros1 => {
             let ros1 = format == Format::Ros1;

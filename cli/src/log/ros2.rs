@@ -127,7 +127,7 @@ fn check_string(data: &[u8], offset: usize) -> Result<usize, String> {
     Ok(at + 4 + len)
 }
 
-fn decode_scan(data: &[u8]) -> Result<(LogScan, f64), String> {
+pub(super) fn decode_scan(data: &[u8]) -> Result<(LogScan, f64), String> {
     check_string(data, 8)?;
     let msg: LaserScanMsg = cdr::deserialize(data).map_err(|e| format!("not a LaserScan: {e}"))?;
     scan_of(LaserFields {
@@ -205,7 +205,7 @@ pub(super) fn scan_of(msg: LaserFields) -> Result<(LogScan, f64), String> {
     ))
 }
 
-fn decode_odometry(data: &[u8]) -> Result<(Pose, f64), String> {
+pub(super) fn decode_odometry(data: &[u8]) -> Result<(Pose, f64), String> {
     let after = check_string(data, 8)?;
     check_string(data, after)?;
     let msg: OdometryMsg =
