@@ -24,7 +24,8 @@ bags by the `rosbags` package (`pip install rosbags`).
 - `seattle-bag.bag` (bz2 chunks) and `seattle-bag-lz4.bag` (lz4 chunks):
   the same messages in ROS 1 bags (format 2.0, `sensor_msgs/LaserScan`,
   `nav_msgs/Odometry`, `std_msgs/String`; ROS 1 headers carry a `seq` and
-  a `secs`/`nsecs` stamp), chunks of about 8 KiB.
+  a `secs`/`nsecs` stamp), chunks of about 8 KiB, and the scans again as
+  `sensor_msgs/MultiEchoLaserScan` (one echo a beam) on `/echoes`.
 - `*.pairs.jsonl`: the pair-file lines of the same consecutive scans,
   copied verbatim, so the tests compare `log` with `scans`.
 
@@ -254,10 +255,25 @@ def ros1_bag(scans, path, compression):
         scan_c = w.add_connection("/scan", "sensor_msgs/msg/LaserScan", typestore=store)
         odom_c = w.add_connection("/odom", "nav_msgs/msg/Odometry", typestore=store)
         chat_c = w.add_connection("/chatter", "std_msgs/msg/String", typestore=store)
+        echo_c = w.add_connection("/echoes", "sensor_msgs/msg/MultiEchoLaserScan",
+                                  typestore=store)
         for i, (scan, _, (ox, oy, ot)) in enumerate(scans):
             t = scan["t"] if scan["t"] > 0 else float(i + 1)
             ns = int(round(t * 1e9))
             n = len(scan["ranges"])
+            echo = T["sensor_msgs/msg/LaserEcho"]
+            multi = T["sensor_msgs/msg/MultiEchoLaserScan"](
+                header=Header(seq=i, stamp=ros_time(t), frame_id="laser"),
+                angle_min=scan["angle_min"],
+                angle_max=scan["angle_min"] + (n - 1) * scan["angle_increment"],
+                angle_increment=scan["angle_increment"],
+                time_increment=0.0,
+                scan_time=0.0,
+                range_min=0.0,
+                range_max=scan["max_range"],
+                ranges=[echo(echoes=np.array([float(r)], dtype=np.float32))
+                        for r in scan["ranges"]],
+                intensities=[])
             odom = T["nav_msgs/msg/Odometry"](
                 header=Header(seq=i, stamp=ros_time(t), frame_id="odom"),
                 child_frame_id="base_link",
@@ -284,6 +300,8 @@ def ros1_bag(scans, path, compression):
                 ranges=np.array([float(r) for r in scan["ranges"]], dtype=np.float32),
                 intensities=np.array([], dtype=np.float32))
             w.write(scan_c, ns, store.serialize_ros1(laser, "sensor_msgs/msg/LaserScan"))
+            w.write(echo_c, ns + 500,
+                    store.serialize_ros1(multi, "sensor_msgs/msg/MultiEchoLaserScan"))
             if i % 4 == 0:
                 text = T["std_msgs/msg/String"](data=f"scan {i}")
                 w.write(chat_c, ns + 1000, store.serialize_ros1(text, "std_msgs/msg/String"))

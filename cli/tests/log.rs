@@ -711,6 +711,18 @@ fn ros1_bags_read_like_the_mcap_bag() {
         &["log", "-q", &data("seattle-bag.bag"), "--topic", "/scan"],
         "seattle-bag.pairs.jsonl",
     );
+    // The same scans as `MultiEchoLaserScan` (one echo a beam) on `/echoes`.
+    let echoes = tool(&[
+        "log",
+        "-q",
+        &data("seattle-bag.bag"),
+        "--topic",
+        "/echoes",
+        "--prior",
+        "odom",
+    ]);
+    assert_eq!(echoes.status.code(), Some(0), "{}", stderr(&echoes));
+    assert_eq!(stdout(&echoes), stdout(&mcap));
 }
 
 #[test]
@@ -723,6 +735,7 @@ fn ros1_bag_topics_and_types_are_checked() {
         "/scan  (sensor_msgs/LaserScan, 12 messages)",
         "/odom  (nav_msgs/Odometry, 12 messages)",
         "/chatter  (std_msgs/String, 3 messages)",
+        "/echoes  (sensor_msgs/MultiEchoLaserScan, 12 messages)",
     ] {
         assert!(e.contains(t), "{t} not in {e}");
     }

@@ -759,8 +759,8 @@ impl LogArgs {
 /// The message types a bag names its scans and odometry by.
 #[derive(Clone, Copy, Debug)]
 pub struct BagTypes {
-    /// The laser scan's type.
-    pub scan: &'static str,
+    /// The laser scans' types (the first is the one found without `--topic`).
+    pub scan: &'static [&'static str],
     /// The odometry's type.
     pub odometry: &'static str,
 }
@@ -768,12 +768,12 @@ pub struct BagTypes {
 impl BagTypes {
     /// ROS 2 (MCAP).
     pub const ROS2: Self = Self {
-        scan: ros2::LASER_SCAN,
+        scan: &[ros2::LASER_SCAN],
         odometry: ros2::ODOMETRY,
     };
     /// ROS 1.
     pub const ROS1: Self = Self {
-        scan: ros1::LASER_SCAN,
+        scan: &[ros1::LASER_SCAN, ros1::MULTI_ECHO_SCAN],
         odometry: ros1::ODOMETRY,
     };
 }
@@ -793,12 +793,13 @@ pub fn choose_topics(
 ) -> Result<(String, Option<String>), Fatal> {
     let topic = match &args.topic {
         Some(t) if topics.contains_key(t) => t.clone(),
-        None => match ros2::only_topic_of(topics, types.scan) {
-            Some(t) => {
-                eprintln!(
-                    "hough-heading: {file}: using {t}, the bag's only {} topic",
-                    types.scan
-                );
+        None => match types
+            .scan
+            .iter()
+            .find_map(|&schema| ros2::only_topic_of(topics, schema).map(|t| (t, schema)))
+        {
+            Some((t, schema)) => {
+                eprintln!("hough-heading: {file}: using {t}, the bag's only {schema} topic");
                 t
             }
             None => return Err(ros2::topic_error(file, None, topics)),

@@ -1,5 +1,6 @@
-//! ROS 1 bags (format 2.0): `sensor_msgs/LaserScan` messages of one topic,
-//! and `nav_msgs/Odometry` as the odometry.
+//! ROS 1 bags (format 2.0): `sensor_msgs/LaserScan` (or
+//! `sensor_msgs/MultiEchoLaserScan`, each beam's first echo) messages of one
+//! topic, and `nav_msgs/Odometry` as the odometry.
 //!
 //! The file is read front to back in one pass. A bag is a sequence of
 //! records, each `header length (u32), header, data length (u32), data`; a
@@ -35,11 +36,15 @@ pub const MAGIC: &[u8] = b"#ROSBAG V2.0\n";
 pub const RECORD_LIMIT: usize = 1 << 28;
 /// The message type of a laser scan.
 pub const LASER_SCAN: &str = "sensor_msgs/LaserScan";
+/// The message type of a laser scan with several echoes a beam (the first
+/// echo of each beam is its range; Cartographer's public bags carry these).
+pub const MULTI_ECHO_SCAN: &str = "sensor_msgs/MultiEchoLaserScan";
 /// The message type of an odometry message.
 pub const ODOMETRY: &str = "nav_msgs/Odometry";
 /// MD5 sums of the two messages' definitions (a connection that gives
 /// another sum has another layout and is refused).
 const LASER_SCAN_MD5: &str = "90c7ef2dc6895d81024acba2ac42f369";
+const MULTI_ECHO_SCAN_MD5: &str = "6fefb0c6da89d7c8abe4b339f5c2f8fb";
 const ODOMETRY_MD5: &str = "cd5e73d190d741a2f92e81eda573aca7";
 
 const OP_MESSAGE_DATA: u8 = 0x02;
@@ -408,6 +413,39 @@ fn decode_scan(data: &[u8]) -> Result<(super::LogScan, f64), String> {
     })
 }
 
+/// A `MultiEchoLaserScan`: each beam's first echo is its range (a beam
+/// without echoes has no reading).
+fn decode_multi_echo(data: &[u8]) -> Result<(super::LogScan, f64), String> {
+    let mut p = Payload { data };
+    let time = p.header()?;
+    let angle_min = p.f32()?;
+    let _angle_max = p.f32()?;
+    let angle_increment = p.f32()?;
+    let _time_increment = p.f32()?;
+    let _scan_time = p.f32()?;
+    let range_min = p.f32()?;
+    let range_max = p.f32()?;
+    let beams = p.u32()? as usize;
+    // Each beam takes at least its 4-byte echo count.
+    if beams.saturating_mul(4) > p.data.len() {
+        return Err(format!("{beams} beams do not fit in the message"));
+    }
+    let mut ranges = Vec::with_capacity(beams);
+    for _ in 0..beams {
+        let echoes = p.f32_array()?;
+        ranges.push(echoes.first().copied().unwrap_or(f32::NAN));
+    }
+    // `intensities` follows; not read.
+    scan_of(LaserFields {
+        time,
+        angle_min,
+        angle_increment,
+        range_min,
+        range_max,
+        ranges,
+    })
+}
+
 fn decode_odometry(data: &[u8]) -> Result<(Pose, f64), String> {
     let mut p = Payload { data };
     let time = p.header()?;
@@ -485,12 +523,13 @@ impl<R: Read> Iterator for BagReader<R> {
             if !is_scan && !is_odom {
                 continue;
             }
-            let (expected, md5) = if is_scan {
-                (LASER_SCAN, LASER_SCAN_MD5)
-            } else {
-                (ODOMETRY, ODOMETRY_MD5)
-            };
             let c = &message.connection;
+            let multi_echo = is_scan && c.msg_type == MULTI_ECHO_SCAN;
+            let (expected, md5) = match (is_scan, multi_echo) {
+                (true, true) => (MULTI_ECHO_SCAN, MULTI_ECHO_SCAN_MD5),
+                (true, false) => (LASER_SCAN, LASER_SCAN_MD5),
+                _ => (ODOMETRY, ODOMETRY_MD5),
+            };
             if c.msg_type != expected || !(c.md5sum.is_empty() || c.md5sum == md5) {
                 let fatal = Fatal::io(format!(
                     "{}: {record} on topic {topic} is {} (md5sum {}); expected {expected} \
@@ -505,7 +544,12 @@ impl<R: Read> Iterator for BagReader<R> {
             let named = format!("{record} (topic {topic})");
             if is_scan {
                 self.checked = true;
-                return Some(Ok(match decode_scan(&message.data) {
+                let decoded = if multi_echo {
+                    decode_multi_echo(&message.data)
+                } else {
+                    decode_scan(&message.data)
+                };
+                return Some(Ok(match decoded {
                     Ok((mut scan, stamp)) => {
                         // The header stamp, or the record time when it is unset.
                         scan.time = Some(if stamp > 0.0 { stamp } else { message.time });
@@ -556,6 +600,18 @@ mod tests {
         }
         // Both compressions hold the same messages.
         assert_eq!(payloads(BAG, "/scan"), payloads(LZ4, "/scan"));
+        // The multi-echo copies (one echo a beam) give the same scans.
+        let echoes = payloads(BAG, "/echoes");
+        assert_eq!(echoes.len(), 12);
+        for (multi, single) in echoes.iter().zip(&payloads(BAG, "/scan")) {
+            let (a, ta) = decode_multi_echo(multi).expect("a multi-echo scan");
+            let (b, tb) = decode_scan(single).expect("a scan");
+            assert_eq!(a.record.ranges, b.record.ranges);
+            assert_eq!(
+                (ta, a.record.angle_increment),
+                (tb, b.record.angle_increment)
+            );
+        }
     }
 
     #[test]
@@ -581,7 +637,13 @@ mod tests {
                     d[at] = (next() & 0xff) as u8;
                 }
                 let _ = decode_scan(&d);
+                let _ = decode_multi_echo(&d);
                 let _ = decode_odometry(&d);
+            }
+        }
+        for data in payloads(BAG, "/echoes").iter().take(2) {
+            for cut in 0..data.len().min(300) {
+                assert!(decode_multi_echo(&data[..cut]).is_err());
             }
         }
         // Lengths beyond the message are refused before reading.
