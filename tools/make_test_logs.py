@@ -229,23 +229,64 @@ def bag(scans, path, nan_scan=None):
         w.finish()
 
 
+def ros_messages(store, i, scan, odom_pose, ros1):
+    """The odometry, scan and multi-echo scan messages of scan `i`, as
+    `rosbags` message objects of `store` (ROS 1 headers carry `seq`)."""
+    T = store.types
+    t = scan["t"] if scan["t"] > 0 else float(i + 1)
+    s = stamp(t)
+    time = T["builtin_interfaces/msg/Time"](sec=s["sec"], nanosec=s["nanosec"])
+
+    def header(frame):
+        extra = {"seq": i} if ros1 else {}
+        return T["std_msgs/msg/Header"](stamp=time, frame_id=frame, **extra)
+
+    def vector(x, y, z):
+        return T["geometry_msgs/msg/Vector3"](x=x, y=y, z=z)
+
+    ox, oy, ot = odom_pose
+    n = len(scan["ranges"])
+    odom = T["nav_msgs/msg/Odometry"](
+        header=header("odom"),
+        child_frame_id="base_link",
+        pose=T["geometry_msgs/msg/PoseWithCovariance"](
+            pose=T["geometry_msgs/msg/Pose"](
+                position=T["geometry_msgs/msg/Point"](x=ox, y=oy, z=0.0),
+                orientation=T["geometry_msgs/msg/Quaternion"](
+                    x=0.0, y=0.0, z=math.sin(ot / 2), w=math.cos(ot / 2))),
+            covariance=np.zeros(36)),
+        twist=T["geometry_msgs/msg/TwistWithCovariance"](
+            twist=T["geometry_msgs/msg/Twist"](
+                linear=vector(0.0, 0.0, 0.0), angular=vector(0.0, 0.0, 0.0)),
+            covariance=np.zeros(36)))
+    geometry = dict(
+        angle_min=scan["angle_min"],
+        angle_max=scan["angle_min"] + (n - 1) * scan["angle_increment"],
+        angle_increment=scan["angle_increment"],
+        time_increment=0.0,
+        scan_time=0.0,
+        range_min=0.0,
+        range_max=scan["max_range"])
+    ranges = [float(r) for r in scan["ranges"]]
+    laser = T["sensor_msgs/msg/LaserScan"](
+        header=header("laser"), **geometry,
+        ranges=np.array(ranges, dtype=np.float32),
+        intensities=np.array([], dtype=np.float32))
+    echo = T["sensor_msgs/msg/LaserEcho"]
+    multi = T["sensor_msgs/msg/MultiEchoLaserScan"](
+        header=header("laser"), **geometry,
+        ranges=[echo(echoes=np.array([r], dtype=np.float32)) for r in ranges],
+        intensities=[])
+    text = T["std_msgs/msg/String"](data=f"scan {i}") if i % 4 == 0 else None
+    return int(round(t * 1e9)), odom, laser, multi, text
+
+
 def ros1_bag(scans, path, compression):
     """The messages of `bag` in a ROS 1 bag, written by `rosbags`."""
     from rosbags.rosbag1 import Writer
     from rosbags.typesys import Stores, get_typestore
 
     store = get_typestore(Stores.ROS1_NOETIC)
-    T = store.types
-    Time = T["builtin_interfaces/msg/Time"]
-    Header = T["std_msgs/msg/Header"]
-
-    def ros_time(t):
-        s = stamp(t)
-        return Time(sec=s["sec"], nanosec=s["nanosec"])
-
-    def vector(x, y, z):
-        return T["geometry_msgs/msg/Vector3"](x=x, y=y, z=z)
-
     if os.path.exists(path):
         os.remove(path)
     w = Writer(path)
@@ -257,53 +298,13 @@ def ros1_bag(scans, path, compression):
         chat_c = w.add_connection("/chatter", "std_msgs/msg/String", typestore=store)
         echo_c = w.add_connection("/echoes", "sensor_msgs/msg/MultiEchoLaserScan",
                                   typestore=store)
-        for i, (scan, _, (ox, oy, ot)) in enumerate(scans):
-            t = scan["t"] if scan["t"] > 0 else float(i + 1)
-            ns = int(round(t * 1e9))
-            n = len(scan["ranges"])
-            echo = T["sensor_msgs/msg/LaserEcho"]
-            multi = T["sensor_msgs/msg/MultiEchoLaserScan"](
-                header=Header(seq=i, stamp=ros_time(t), frame_id="laser"),
-                angle_min=scan["angle_min"],
-                angle_max=scan["angle_min"] + (n - 1) * scan["angle_increment"],
-                angle_increment=scan["angle_increment"],
-                time_increment=0.0,
-                scan_time=0.0,
-                range_min=0.0,
-                range_max=scan["max_range"],
-                ranges=[echo(echoes=np.array([float(r)], dtype=np.float32))
-                        for r in scan["ranges"]],
-                intensities=[])
-            odom = T["nav_msgs/msg/Odometry"](
-                header=Header(seq=i, stamp=ros_time(t), frame_id="odom"),
-                child_frame_id="base_link",
-                pose=T["geometry_msgs/msg/PoseWithCovariance"](
-                    pose=T["geometry_msgs/msg/Pose"](
-                        position=T["geometry_msgs/msg/Point"](x=ox, y=oy, z=0.0),
-                        orientation=T["geometry_msgs/msg/Quaternion"](
-                            x=0.0, y=0.0, z=math.sin(ot / 2), w=math.cos(ot / 2))),
-                    covariance=np.zeros(36)),
-                twist=T["geometry_msgs/msg/TwistWithCovariance"](
-                    twist=T["geometry_msgs/msg/Twist"](
-                        linear=vector(0.0, 0.0, 0.0), angular=vector(0.0, 0.0, 0.0)),
-                    covariance=np.zeros(36)))
+        for i, (scan, _, odom_pose) in enumerate(scans):
+            ns, odom, laser, multi, text = ros_messages(store, i, scan, odom_pose, True)
             w.write(odom_c, ns - 1000, store.serialize_ros1(odom, "nav_msgs/msg/Odometry"))
-            laser = T["sensor_msgs/msg/LaserScan"](
-                header=Header(seq=i, stamp=ros_time(t), frame_id="laser"),
-                angle_min=scan["angle_min"],
-                angle_max=scan["angle_min"] + (n - 1) * scan["angle_increment"],
-                angle_increment=scan["angle_increment"],
-                time_increment=0.0,
-                scan_time=0.0,
-                range_min=0.0,
-                range_max=scan["max_range"],
-                ranges=np.array([float(r) for r in scan["ranges"]], dtype=np.float32),
-                intensities=np.array([], dtype=np.float32))
             w.write(scan_c, ns, store.serialize_ros1(laser, "sensor_msgs/msg/LaserScan"))
             w.write(echo_c, ns + 500,
                     store.serialize_ros1(multi, "sensor_msgs/msg/MultiEchoLaserScan"))
-            if i % 4 == 0:
-                text = T["std_msgs/msg/String"](data=f"scan {i}")
+            if text is not None:
                 w.write(chat_c, ns + 1000, store.serialize_ros1(text, "std_msgs/msg/String"))
 
 
@@ -316,55 +317,17 @@ def db3_bag(scans, path):
     from rosbags.typesys import Stores, get_typestore
 
     store = get_typestore(Stores.ROS2_HUMBLE)
-    T = store.types
-    Time = T["builtin_interfaces/msg/Time"]
-    Header = T["std_msgs/msg/Header"]
-
-    def ros_time(t):
-        s = stamp(t)
-        return Time(sec=s["sec"], nanosec=s["nanosec"])
-
-    def vector(x, y, z):
-        return T["geometry_msgs/msg/Vector3"](x=x, y=y, z=z)
-
     if os.path.exists(path):
         shutil.rmtree(path)
     with Writer(path, version=8, storage_plugin=StoragePlugin.SQLITE3) as w:
         scan_c = w.add_connection("/scan", "sensor_msgs/msg/LaserScan", typestore=store)
         odom_c = w.add_connection("/odom", "nav_msgs/msg/Odometry", typestore=store)
         chat_c = w.add_connection("/chatter", "std_msgs/msg/String", typestore=store)
-        for i, (scan, _, (ox, oy, ot)) in enumerate(scans):
-            t = scan["t"] if scan["t"] > 0 else float(i + 1)
-            ns = int(round(t * 1e9))
-            n = len(scan["ranges"])
-            odom = T["nav_msgs/msg/Odometry"](
-                header=Header(stamp=ros_time(t), frame_id="odom"),
-                child_frame_id="base_link",
-                pose=T["geometry_msgs/msg/PoseWithCovariance"](
-                    pose=T["geometry_msgs/msg/Pose"](
-                        position=T["geometry_msgs/msg/Point"](x=ox, y=oy, z=0.0),
-                        orientation=T["geometry_msgs/msg/Quaternion"](
-                            x=0.0, y=0.0, z=math.sin(ot / 2), w=math.cos(ot / 2))),
-                    covariance=np.zeros(36)),
-                twist=T["geometry_msgs/msg/TwistWithCovariance"](
-                    twist=T["geometry_msgs/msg/Twist"](
-                        linear=vector(0.0, 0.0, 0.0), angular=vector(0.0, 0.0, 0.0)),
-                    covariance=np.zeros(36)))
+        for i, (scan, _, odom_pose) in enumerate(scans):
+            ns, odom, laser, _, text = ros_messages(store, i, scan, odom_pose, False)
             w.write(odom_c, ns - 1000, store.serialize_cdr(odom, "nav_msgs/msg/Odometry"))
-            laser = T["sensor_msgs/msg/LaserScan"](
-                header=Header(stamp=ros_time(t), frame_id="laser"),
-                angle_min=scan["angle_min"],
-                angle_max=scan["angle_min"] + (n - 1) * scan["angle_increment"],
-                angle_increment=scan["angle_increment"],
-                time_increment=0.0,
-                scan_time=0.0,
-                range_min=0.0,
-                range_max=scan["max_range"],
-                ranges=np.array([float(r) for r in scan["ranges"]], dtype=np.float32),
-                intensities=np.array([], dtype=np.float32))
             w.write(scan_c, ns, store.serialize_cdr(laser, "sensor_msgs/msg/LaserScan"))
-            if i % 4 == 0:
-                text = T["std_msgs/msg/String"](data=f"scan {i}")
+            if text is not None:
                 w.write(chat_c, ns + 1000, store.serialize_cdr(text, "std_msgs/msg/String"))
 
 

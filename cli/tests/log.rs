@@ -369,27 +369,50 @@ fn a_wrong_message_type_is_an_error_naming_the_topic() {
     );
 }
 
-#[test]
-fn a_truncated_bag_keeps_the_pairs_before_the_damage() {
-    let bytes = std::fs::read(logs().join("seattle-bag.mcap")).expect("bag");
-    for (cut, name) in [(bytes.len() * 7 / 10, "cut70.mcap"), (40, "cut40.mcap")] {
-        let path = scratch(name);
+/// A copy of the bundled bag `name` cut at 70 %, and one cut at `tiny`
+/// bytes: the first gives the pairs before the damage and one failed record
+/// (`unreadable`), the second no scan (`unusable`, exit status 2).
+fn assert_truncated_bag(name: &str, tiny: usize, unreadable: &str, unusable: &str) {
+    let bytes = std::fs::read(logs().join(name)).expect("bag");
+    for (cut, copy) in [(bytes.len() * 7 / 10, "cut70"), (tiny, "tiny")] {
+        let path = scratch(&format!("{copy}-{name}"));
         std::fs::write(&path, &bytes[..cut]).expect("write");
         let o = tool(&["log", "-q", &path.display().to_string(), "--topic", "/scan"]);
         let e = stderr(&o);
         assert!(!e.contains("panicked"), "{e}");
-        assert!(e.contains(name), "{e}");
-        if cut > 40 {
+        assert!(e.contains(&format!("{copy}-{name}")), "{e}");
+        if cut > tiny {
             // Whole chunks before the cut are read; the damage is one failed
             // record after them.
             assert_eq!(o.status.code(), Some(1), "{e}");
-            assert!(e.contains("unreadable MCAP"), "{e}");
-            assert!(!json_lines(&o).is_empty());
+            assert!(e.contains(unreadable), "{e}");
+            let lines = json_lines(&o);
+            assert!(
+                !lines.is_empty() && lines.len() < 11,
+                "{} pairs",
+                lines.len()
+            );
         } else {
             assert_eq!(o.status.code(), Some(2), "{e}");
-            assert!(e.contains("not a readable MCAP file"), "{e}");
+            assert!(e.contains(unusable), "{e}");
         }
     }
+}
+
+#[test]
+fn a_truncated_bag_keeps_the_pairs_before_the_damage() {
+    assert_truncated_bag(
+        "seattle-bag.mcap",
+        40,
+        "unreadable MCAP",
+        "not a readable MCAP file",
+    );
+    assert_truncated_bag(
+        "seattle-bag.bag",
+        20,
+        "unreadable ROS 1 bag",
+        "not a readable ROS 1 bag",
+    );
 }
 
 #[test]
@@ -754,34 +777,6 @@ fn ros1_bag_topics_and_types_are_checked() {
         "{}",
         stderr(&o)
     );
-}
-
-#[test]
-fn a_truncated_ros1_bag_keeps_the_pairs_before_the_damage() {
-    let bytes = std::fs::read(logs().join("seattle-bag.bag")).expect("bag");
-    for (cut, name) in [(bytes.len() * 7 / 10, "cut70.bag"), (20, "cut20.bag")] {
-        let path = scratch(name);
-        std::fs::write(&path, &bytes[..cut]).expect("write");
-        let o = tool(&["log", "-q", &path.display().to_string(), "--topic", "/scan"]);
-        let e = stderr(&o);
-        assert!(!e.contains("panicked"), "{e}");
-        assert!(e.contains(name), "{e}");
-        if cut > 20 {
-            // Whole chunks before the cut are read; the damage is one failed
-            // record after them.
-            assert_eq!(o.status.code(), Some(1), "{e}");
-            assert!(e.contains("unreadable ROS 1 bag"), "{e}");
-            let lines = json_lines(&o);
-            assert!(
-                !lines.is_empty() && lines.len() < 11,
-                "{} pairs",
-                lines.len()
-            );
-        } else {
-            assert_eq!(o.status.code(), Some(2), "{e}");
-            assert!(e.contains("not a readable ROS 1 bag"), "{e}");
-        }
-    }
 }
 
 /// A ROS 2 bag in SQLite of the same messages (written by the `rosbags`

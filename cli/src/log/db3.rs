@@ -16,8 +16,11 @@ use std::path::{Path, PathBuf};
 
 use rusqlite::{Connection, OpenFlags};
 
-use super::ros2::{decode_odometry, decode_scan, BagItem, TopicInfo, LASER_SCAN, ODOMETRY};
-use super::{Event, RecordError};
+use super::ros2::{
+    decode_odometry, decode_scan, odometry_item, scan_item, BagItem, TopicInfo, LASER_SCAN,
+    ODOMETRY,
+};
+use super::RecordError;
 use crate::Fatal;
 
 /// The first bytes of an SQLite database.
@@ -316,21 +319,9 @@ impl Iterator for BagReader {
         let named = format!("{record} (topic {topic})");
         if is_scan {
             self.checked = true;
-            return Some(Ok(match decode_scan(&row.data) {
-                Ok((mut scan, stamp)) => {
-                    scan.time = Some(if stamp > 0.0 { stamp } else { time });
-                    Ok(Event::Scan(scan).with_record(named))
-                }
-                Err(e) => Err(RecordError::new(named, e)),
-            }));
+            return Some(scan_item(decode_scan(&row.data), time, named));
         }
-        Some(Ok(match decode_odometry(&row.data) {
-            Ok((pose, stamp)) => Ok(Event::Odometry {
-                time: Some(if stamp > 0.0 { stamp } else { time }),
-                pose,
-            }),
-            Err(e) => Err(RecordError::new(named, e)),
-        }))
+        Some(odometry_item(decode_odometry(&row.data), time, named))
     }
 }
 

@@ -652,38 +652,29 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
             eprintln!("hough-heading: {file}: {}", reader.report());
             scans
         }
-        Format::Db3 => {
-            let files = db3::bag_files(&args.file)?;
-            let topics = db3::topics(&files)?;
-            let (topic, odom_topic) = choose_topics(args, &file, &topics, BagTypes::ROS2)?;
-            let events = db3::BagReader::new(files, &topic, odom_topic.as_deref()).map(|item| {
-                item.map(|event| {
-                    event.map(|e| match (e, laser_offset) {
-                        (Event::Scan(mut s), Some(o)) => {
-                            s.record.laser_offset = o;
-                            Event::Scan(s)
-                        }
-                        (e, _) => e,
-                    })
-                })
-            });
-            stream(&mut run, events)?
-        }
-        Format::Mcap | Format::Ros1 => {
-            let ros1 = format == Format::Ros1;
-            let (topics, types) = if ros1 {
-                (ros1::topics(input, &file)?, BagTypes::ROS1)
+        Format::Db3 | Format::Mcap | Format::Ros1 => {
+            let events: Box<dyn Iterator<Item = ros2::BagItem>> = if format == Format::Db3 {
+                let files = db3::bag_files(&args.file)?;
+                let topics = db3::topics(&files)?;
+                let (topic, odom) = choose_topics(args, &file, &topics, BagTypes::ROS2)?;
+                Box::new(db3::BagReader::new(files, &topic, odom.as_deref()))
             } else {
-                (ros2::topics(input, &file)?, BagTypes::ROS2)
-            };
-            let (topic, odom_topic) = choose_topics(args, &file, &topics, types)?;
-            bar.reset();
-            let input = open(&args.file, &bar)?;
-            let odom_topic = odom_topic.as_deref();
-            let events: Box<dyn Iterator<Item = ros2::BagItem>> = if ros1 {
-                Box::new(ros1::BagReader::new(input, &file, &topic, odom_topic))
-            } else {
-                Box::new(ros2::BagReader::new(input, &file, &topic, odom_topic))
+                let ros1 = format == Format::Ros1;
+                let (topics, types) = if ros1 {
+                    (ros1::topics(input, &file)?, BagTypes::ROS1)
+                } else {
+                    (ros2::topics(input, &file)?, BagTypes::ROS2)
+                };
+                let (topic, odom) = choose_topics(args, &file, &topics, types)?;
+                // The topics took one pass; the messages take another.
+                bar.reset();
+                let input = open(&args.file, &bar)?;
+                let odom = odom.as_deref();
+                if ros1 {
+                    Box::new(ros1::BagReader::new(input, &file, &topic, odom))
+                } else {
+                    Box::new(ros2::BagReader::new(input, &file, &topic, odom))
+                }
             };
             let events = events.map(|item| {
                 item.map(|event| {
@@ -913,6 +904,33 @@ fn stream_pairs(
         )));
     }
     Ok(scans)
+}
+
+/// A deterministic spread of values for the readers' damage tests
+/// (xorshift64 from `seed`, not zero).
+#[cfg(test)]
+fn xorshift(seed: u64) -> impl FnMut() -> u64 {
+    let mut state = seed;
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    }
+}
+
+/// `data` with `bytes` of its bytes set to values of `next`, at places of
+/// `next` (for the readers' damage tests).
+#[cfg(test)]
+fn damaged(data: &[u8], bytes: usize, next: &mut impl FnMut() -> u64) -> Vec<u8> {
+    let mut d = data.to_vec();
+    for _ in 0..bytes {
+        let at = (next() % d.len().max(1) as u64) as usize;
+        if let Some(b) = d.get_mut(at) {
+            *b = (next() & 0xff) as u8;
+        }
+    }
+    d
 }
 
 #[cfg(test)]

@@ -26,8 +26,10 @@
 use std::collections::{BTreeMap, HashMap};
 use std::io::Read;
 
-use super::ros2::{odometry_pose, scan_of, BagItem, LaserFields, TopicInfo};
-use super::{Event, Pose, RecordError};
+use super::ros2::{
+    odometry_item, odometry_pose, scan_item, scan_of, BagItem, LaserFields, TopicInfo,
+};
+use super::{Pose, RecordError};
 use crate::Fatal;
 
 /// The first bytes of a ROS 1 bag.
@@ -391,25 +393,32 @@ impl<'a> Payload<'a> {
     }
 }
 
-fn decode_scan(data: &[u8]) -> Result<(super::LogScan, f64), String> {
-    let mut p = Payload { data };
+/// The fields of a `LaserScan` or `MultiEchoLaserScan` before its ranges
+/// (ranges left empty).
+fn scan_head(p: &mut Payload<'_>) -> Result<LaserFields, String> {
     let time = p.header()?;
     let angle_min = p.f32()?;
     let _angle_max = p.f32()?;
     let angle_increment = p.f32()?;
     let _time_increment = p.f32()?;
     let _scan_time = p.f32()?;
-    let range_min = p.f32()?;
-    let range_max = p.f32()?;
-    let ranges = p.f32_array()?;
-    // `intensities` follows; not read.
-    scan_of(LaserFields {
+    Ok(LaserFields {
         time,
         angle_min,
         angle_increment,
-        range_min,
-        range_max,
-        ranges,
+        range_min: p.f32()?,
+        range_max: p.f32()?,
+        ranges: Vec::new(),
+    })
+}
+
+fn decode_scan(data: &[u8]) -> Result<(super::LogScan, f64), String> {
+    let mut p = Payload { data };
+    let head = scan_head(&mut p)?;
+    // `intensities` follows the ranges; not read.
+    scan_of(LaserFields {
+        ranges: p.f32_array()?,
+        ..head
     })
 }
 
@@ -417,14 +426,7 @@ fn decode_scan(data: &[u8]) -> Result<(super::LogScan, f64), String> {
 /// without echoes has no reading).
 fn decode_multi_echo(data: &[u8]) -> Result<(super::LogScan, f64), String> {
     let mut p = Payload { data };
-    let time = p.header()?;
-    let angle_min = p.f32()?;
-    let _angle_max = p.f32()?;
-    let angle_increment = p.f32()?;
-    let _time_increment = p.f32()?;
-    let _scan_time = p.f32()?;
-    let range_min = p.f32()?;
-    let range_max = p.f32()?;
+    let head = scan_head(&mut p)?;
     let beams = p.u32()? as usize;
     // Each beam takes at least its 4-byte echo count.
     if beams.saturating_mul(4) > p.data.len() {
@@ -436,14 +438,7 @@ fn decode_multi_echo(data: &[u8]) -> Result<(super::LogScan, f64), String> {
         ranges.push(echoes.first().copied().unwrap_or(f32::NAN));
     }
     // `intensities` follows; not read.
-    scan_of(LaserFields {
-        time,
-        angle_min,
-        angle_increment,
-        range_min,
-        range_max,
-        ranges,
-    })
+    scan_of(LaserFields { ranges, ..head })
 }
 
 fn decode_odometry(data: &[u8]) -> Result<(Pose, f64), String> {
@@ -549,28 +544,20 @@ impl<R: Read> Iterator for BagReader<R> {
                 } else {
                     decode_scan(&message.data)
                 };
-                return Some(Ok(match decoded {
-                    Ok((mut scan, stamp)) => {
-                        // The header stamp, or the record time when it is unset.
-                        scan.time = Some(if stamp > 0.0 { stamp } else { message.time });
-                        Ok(Event::Scan(scan).with_record(named))
-                    }
-                    Err(e) => Err(RecordError::new(named, e)),
-                }));
+                return Some(scan_item(decoded, message.time, named));
             }
-            return Some(Ok(match decode_odometry(&message.data) {
-                Ok((pose, stamp)) => Ok(Event::Odometry {
-                    time: Some(if stamp > 0.0 { stamp } else { message.time }),
-                    pose,
-                }),
-                Err(e) => Err(RecordError::new(named, e)),
-            }));
+            return Some(odometry_item(
+                decode_odometry(&message.data),
+                message.time,
+                named,
+            ));
         }
     }
 }
 
 #[cfg(test)]
 mod tests {
+    use super::super::{damaged, xorshift};
     use super::*;
 
     const BAG: &[u8] = include_bytes!("../../data/logs/seattle-bag.bag");
@@ -616,13 +603,7 @@ mod tests {
 
     #[test]
     fn damaged_payloads_are_errors_not_panics() {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = xorshift(0x9e37_79b9_7f4a_7c15u64);
         let scans = payloads(BAG, "/scan");
         let odometry = payloads(BAG, "/odom");
         for data in scans.iter().chain(&odometry).take(4) {
@@ -631,11 +612,7 @@ mod tests {
                 assert!(decode_odometry(&data[..cut]).is_err());
             }
             for _ in 0..500 {
-                let mut d = data.clone();
-                for _ in 0..3 {
-                    let at = (next() % d.len() as u64) as usize;
-                    d[at] = (next() & 0xff) as u8;
-                }
+                let d = damaged(data, 3, &mut next);
                 let _ = decode_scan(&d);
                 let _ = decode_multi_echo(&d);
                 let _ = decode_odometry(&d);
@@ -654,13 +631,7 @@ mod tests {
 
     #[test]
     fn damaged_files_end_with_an_error_not_a_panic() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = xorshift(0x2545_f491_4f6c_dd1du64);
         for bag in [BAG, LZ4] {
             let whole: Vec<Vec<u8>> = Messages::new(bag).map(|m| m.unwrap().data).collect();
             for cut in (0..bag.len()).step_by(97) {
@@ -673,11 +644,7 @@ mod tests {
                 assert!(good.len() <= whole.len(), "cut at {cut}");
             }
             for _ in 0..300 {
-                let mut d = bag.to_vec();
-                for _ in 0..4 {
-                    let at = (next() % d.len() as u64) as usize;
-                    d[at] = (next() & 0xff) as u8;
-                }
+                let d = damaged(bag, 4, &mut next);
                 for m in Messages::new(d.as_slice()).flatten() {
                     let _ = decode_scan(&m.data);
                     let _ = decode_odometry(&m.data);

@@ -229,6 +229,38 @@ pub(super) fn odometry_pose(
     Ok(pose)
 }
 
+/// The item of a decoded scan message `named` (its record): the scan timed
+/// by its header stamp, or by `time` (the bag's own time of the message,
+/// seconds) when the stamp is zero.
+pub(super) fn scan_item(
+    decoded: Result<(LogScan, f64), String>,
+    time: f64,
+    named: String,
+) -> BagItem {
+    Ok(match decoded {
+        Ok((mut scan, stamp)) => {
+            scan.time = Some(if stamp > 0.0 { stamp } else { time });
+            Ok(Event::Scan(scan).with_record(named))
+        }
+        Err(e) => Err(RecordError::new(named, e)),
+    })
+}
+
+/// [`scan_item`] for an odometry message.
+pub(super) fn odometry_item(
+    decoded: Result<(Pose, f64), String>,
+    time: f64,
+    named: String,
+) -> BagItem {
+    Ok(match decoded {
+        Ok((pose, stamp)) => Ok(Event::Odometry {
+            time: Some(if stamp > 0.0 { stamp } else { time }),
+            pose,
+        }),
+        Err(e) => Err(RecordError::new(named, e)),
+    })
+}
+
 /// One topic of a bag: its type and message count.
 #[derive(Clone, Debug, Default)]
 pub struct TopicInfo {
@@ -369,24 +401,12 @@ impl<R: Read> Iterator for BagReader<R> {
                 return Some(Ok(Err(RecordError::new(record, fatal.to_string()))));
             }
             let time = message.log_time as f64 * 1e-9;
+            let named = format!("{record} (topic {topic})");
             if is_scan {
                 self.checked = true;
-                return Some(Ok(match decode_scan(&message.data) {
-                    Ok((mut scan, stamp)) => {
-                        // The header stamp, or the log time when it is unset.
-                        scan.time = Some(if stamp > 0.0 { stamp } else { time });
-                        Ok(Event::Scan(scan).with_record(format!("{record} (topic {topic})")))
-                    }
-                    Err(e) => Err(RecordError::new(format!("{record} (topic {topic})"), e)),
-                }));
+                return Some(scan_item(decode_scan(&message.data), time, named));
             }
-            return Some(Ok(match decode_odometry(&message.data) {
-                Ok((pose, stamp)) => Ok(Event::Odometry {
-                    time: Some(if stamp > 0.0 { stamp } else { time }),
-                    pose,
-                }),
-                Err(e) => Err(RecordError::new(format!("{record} (topic {topic})"), e)),
-            }));
+            return Some(odometry_item(decode_odometry(&message.data), time, named));
         }
         None
     }
@@ -394,6 +414,7 @@ impl<R: Read> Iterator for BagReader<R> {
 
 #[cfg(test)]
 mod tests {
+    use super::super::{damaged, xorshift};
     use super::*;
 
     const BAG: &[u8] = include_bytes!("../../data/logs/seattle-bag.mcap");
@@ -421,24 +442,14 @@ mod tests {
 
     #[test]
     fn damaged_payloads_are_errors_not_panics() {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = xorshift(0x9e37_79b9_7f4a_7c15u64);
         for data in payloads("/scan").iter().chain(&payloads("/odom")).take(4) {
             for cut in 0..data.len().min(200) {
                 let _ = decode_scan(&data[..cut]);
                 let _ = decode_odometry(&data[..cut]);
             }
             for _ in 0..500 {
-                let mut d = data.clone();
-                for _ in 0..3 {
-                    let at = (next() % d.len() as u64) as usize;
-                    d[at] = (next() & 0xff) as u8;
-                }
+                let d = damaged(data, 3, &mut next);
                 let _ = decode_scan(&d);
                 let _ = decode_odometry(&d);
             }
