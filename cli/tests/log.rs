@@ -813,7 +813,8 @@ fn ros2_sqlite_bag_errors_are_named() {
     let o = tool(&["log", &data("seattle-bag-db3"), "--topic", "/chatter"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        stderr(&o).contains("on topic /chatter is std_msgs/msg/String (cdr encoding); expected"),
+        stderr(&o)
+            .contains("seattle-bag-db3: message 2 on topic /chatter is std_msgs/msg/String (cdr encoding); expected"),
         "{}",
         stderr(&o)
     );

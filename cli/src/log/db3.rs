@@ -145,6 +145,8 @@ struct Topic {
 
 /// Streams the scans of `topic` and the odometry of `odom_topic` (if any).
 pub struct BagReader {
+    /// The bag as the user named it (for the errors).
+    name: String,
     files: VecDeque<PathBuf>,
     /// The file being read, and its topics.
     db: Option<(Connection, Vec<Topic>)>,
@@ -159,9 +161,11 @@ pub struct BagReader {
 }
 
 impl BagReader {
-    /// A reader of `topic` (LaserScan) and `odom_topic` (Odometry) in `files`.
-    pub fn new(files: Vec<PathBuf>, topic: &str, odom_topic: Option<&str>) -> Self {
+    /// A reader of `topic` (LaserScan) and `odom_topic` (Odometry) in `files`
+    /// of the bag `name`.
+    pub fn new(files: Vec<PathBuf>, name: &str, topic: &str, odom_topic: Option<&str>) -> Self {
         Self {
+            name: name.into(),
             files: files.into(),
             db: None,
             after: (i64::MIN, i64::MIN),
@@ -306,8 +310,9 @@ impl Iterator for BagReader {
         let (schema, format) = self.type_of(topic);
         if schema != expected || format != "cdr" {
             let fatal = Fatal::io(format!(
-                "{record} on topic {topic} is {schema} ({format} encoding); expected {expected} \
-                 (cdr encoding)"
+                "{}: {record} on topic {topic} is {schema} ({format} encoding); expected \
+                 {expected} (cdr encoding)",
+                self.name
             ));
             if is_scan && !self.checked {
                 self.failed = true;

@@ -657,7 +657,7 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
                 let files = db3::bag_files(&args.file)?;
                 let topics = db3::topics(&files)?;
                 let (topic, odom) = choose_topics(args, &file, &topics, BagTypes::ROS2)?;
-                Box::new(db3::BagReader::new(files, &topic, odom.as_deref()))
+                Box::new(db3::BagReader::new(files, &file, &topic, odom.as_deref()))
             } else {
                 let ros1 = format == Format::Ros1;
                 let (topics, types) = if ros1 {

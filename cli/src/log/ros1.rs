@@ -145,7 +145,13 @@ fn unchunk(chunk: &Record) -> Result<Vec<u8>, String> {
     let mut out = Vec::with_capacity(size.min(1 << 20));
     let limit = size as u64 + 1;
     let read = match compression {
-        b"none" => return Ok(chunk.data.clone()),
+        b"none" if chunk.data.len() == size => return Ok(chunk.data.clone()),
+        b"none" => {
+            return Err(format!(
+                "chunk of {} bytes, its header says {size}",
+                chunk.data.len()
+            ))
+        }
         b"bz2" => bzip2::read::BzDecoder::new(chunk.data.as_slice())
             .take(limit)
             .read_to_end(&mut out),
