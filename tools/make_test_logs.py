@@ -308,18 +308,18 @@ def ros1_bag(scans, path, compression):
                 w.write(chat_c, ns + 1000, store.serialize_ros1(text, "std_msgs/msg/String"))
 
 
-def db3_bag(scans, path):
-    """The messages of `bag` in a ROS 2 bag in SQLite (a directory with
-    `metadata.yaml` and one `.db3` file), written by `rosbags`."""
+def bag_directory(scans, path, storage):
+    """The messages of `bag` in a ROS 2 bag directory (`metadata.yaml` and one
+    `.db3` or `.mcap` file, as `storage` says), written by `rosbags`."""
     import shutil
 
-    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.rosbag2 import Writer
     from rosbags.typesys import Stores, get_typestore
 
     store = get_typestore(Stores.ROS2_HUMBLE)
     if os.path.exists(path):
         shutil.rmtree(path)
-    with Writer(path, version=8, storage_plugin=StoragePlugin.SQLITE3) as w:
+    with Writer(path, version=8, storage_plugin=storage) as w:
         scan_c = w.add_connection("/scan", "sensor_msgs/msg/LaserScan", typestore=store)
         odom_c = w.add_connection("/odom", "nav_msgs/msg/Odometry", typestore=store)
         chat_c = w.add_connection("/chatter", "std_msgs/msg/String", typestore=store)
@@ -347,7 +347,8 @@ def main():
         bag(scans, os.path.join(a.all, f"{name}.mcap"))
         from rosbags.rosbag1 import Writer
         ros1_bag(scans, os.path.join(a.all, f"{name}.bag"), Writer.CompressionFormat.LZ4)
-        db3_bag(scans, os.path.join(a.all, f"{name}-db3"))
+        from rosbags.rosbag2 import StoragePlugin
+        bag_directory(scans, os.path.join(a.all, f"{name}-db3"), StoragePlugin.SQLITE3)
         print(f"{len(scans)} scans to {a.all}", file=sys.stderr)
         return
     os.makedirs(OUT, exist_ok=True)
@@ -365,7 +366,9 @@ def main():
     from rosbags.rosbag1 import Writer
     ros1_bag(scans, os.path.join(OUT, "seattle-bag.bag"), Writer.CompressionFormat.BZ2)
     ros1_bag(scans, os.path.join(OUT, "seattle-bag-lz4.bag"), Writer.CompressionFormat.LZ4)
-    db3_bag(scans, os.path.join(OUT, "seattle-bag-db3"))
+    from rosbags.rosbag2 import StoragePlugin
+    bag_directory(scans, os.path.join(OUT, "seattle-bag-db3"), StoragePlugin.SQLITE3)
+    bag_directory(scans, os.path.join(OUT, "seattle-bag-dir"), StoragePlugin.MCAP)
     with open(os.path.join(OUT, "seattle-bag.pairs.jsonl"), "w") as f:
         f.write("\n".join(lines) + "\n")
     print(f"wrote {OUT}", file=sys.stderr)

@@ -818,11 +818,11 @@ fn ros2_sqlite_bag_errors_are_named() {
         "{}",
         stderr(&o)
     );
-    // A directory that is no bag, and a truncated database.
+    // A directory of several bags, and a truncated database.
     let o = tool(&["log", &logs().display().to_string()]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        stderr(&o).contains("a directory without a .db3 file"),
+        stderr(&o).contains("2 bag files and no metadata.yaml to order them"),
         "{}",
         stderr(&o)
     );
@@ -836,4 +836,53 @@ fn ros2_sqlite_bag_errors_are_named() {
         e.contains("not a readable ROS 2 bag in SQLite") && !e.contains("panicked"),
         "{e}"
     );
+}
+
+/// A ROS 2 bag directory in MCAP (written by `rosbags`' own MCAP writer)
+/// reads like the bundled MCAP file; a split bag's files are read in the
+/// order `metadata.yaml` lists them, each named in its errors.
+#[test]
+fn ros2_bag_directories_read_their_files_in_order() {
+    let mcap = tool(&["log", "-q", &data("seattle-bag.mcap"), "--prior", "odom"]);
+    let dir = tool(&["log", "-q", &data("seattle-bag-dir"), "--prior", "odom"]);
+    assert_eq!(dir.status.code(), Some(0), "{}", stderr(&dir));
+    assert_eq!(stdout(&dir), stdout(&mcap));
+    // A split bag: the NaN-scan bag (3 scans, the second unusable), then
+    // the Seattle bag (12 scans), as metadata.yaml lists them.
+    let split = scratch("split-bag");
+    let _ = std::fs::remove_dir_all(&split);
+    std::fs::create_dir_all(&split).expect("scratch dir");
+    std::fs::copy(logs().join("nan-scan.mcap"), split.join("part_0.mcap")).expect("copy");
+    std::fs::copy(logs().join("seattle-bag.mcap"), split.join("part_1.mcap")).expect("copy");
+    std::fs::write(
+        split.join("metadata.yaml"),
+        "rosbag2_bagfile_information:\n  relative_file_paths:\n  - part_0.mcap\n  - part_1.mcap\n  storage_identifier: mcap\n",
+    )
+    .expect("metadata");
+    let o = tool(&[
+        "log",
+        "-q",
+        &split.display().to_string(),
+        "--topic",
+        "/scan",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("part_0.mcap: message") && e.contains("all 361 ranges are NaN"),
+        "{e}"
+    );
+    // 2 usable scans, then 12: 13 consecutive pairs, the second file's
+    // eleven as in the file alone.
+    let lines = json_lines(&o);
+    assert_eq!(lines.len(), 13);
+    let alone = json_lines(&tool(&[
+        "log",
+        "-q",
+        &data("seattle-bag.mcap"),
+        "--topic",
+        "/scan",
+    ]));
+    let f = |v: &Value| estimate_fields(v);
+    assert!(lines[2..].iter().map(f).eq(alone.iter().map(f)));
 }

@@ -3,11 +3,10 @@
 //! `nav_msgs/msg/Odometry` as the odometry.
 //!
 //! A bag is a directory holding `metadata.yaml` and one or more `.db3` files
-//! (a split bag), or one `.db3` file given by itself. The files are read in
-//! the order `metadata.yaml` lists them (`relative_file_paths`), else by
-//! name; in each, the `messages` of the two topics in time order (then by
-//! row id), a page of rows at a time, so memory holds one page. The files
-//! are opened read-only. Payloads are CDR, decoded as for MCAP bags
+//! (a split bag, its files in order: [`super::bagdir`]), or one `.db3` file
+//! given by itself. In each file, the `messages` of the two topics are read
+//! in time order (then by row id), a page of rows at a time, so memory holds
+//! one page. The files are opened read-only. Payloads are CDR, decoded as for MCAP bags
 //! ([`super::ros2`]); a message's time is its header stamp (the bag's
 //! receive time when the stamp is zero).
 
@@ -27,58 +26,6 @@ use crate::Fatal;
 pub const MAGIC: &[u8] = b"SQLite format 3\0";
 /// Rows read from the database at a time.
 const PAGE: i64 = 256;
-
-/// The `.db3` files of a bag: `path` itself if it is a file, else the files
-/// its `metadata.yaml` lists (else every `.db3` file in it, by name).
-///
-/// # Errors
-/// A [`Fatal`] error when the directory cannot be read or holds no `.db3`
-/// file.
-pub fn bag_files(path: &Path) -> Result<Vec<PathBuf>, Fatal> {
-    if !path.is_dir() {
-        return Ok(vec![path.to_path_buf()]);
-    }
-    let name = path.display();
-    let listed: Vec<PathBuf> = std::fs::read_to_string(path.join("metadata.yaml"))
-        .map(|text| listed_files(&text))
-        .unwrap_or_default()
-        .into_iter()
-        .map(|f| path.join(f))
-        .collect();
-    let mut files = if listed.is_empty() {
-        let entries =
-            std::fs::read_dir(path).map_err(|e| Fatal::io(format!("{name}: cannot read: {e}")))?;
-        let mut found: Vec<PathBuf> = entries
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.extension().is_some_and(|x| x == "db3"))
-            .collect();
-        found.sort();
-        found
-    } else {
-        listed
-    };
-    files.retain(|p| p.extension().is_some_and(|x| x == "db3"));
-    if files.is_empty() {
-        return Err(Fatal::io(format!(
-            "{name}: a directory without a .db3 file (a ROS 2 bag in SQLite holds \
-             metadata.yaml and .db3 files; give an MCAP bag's .mcap file itself)"
-        )));
-    }
-    Ok(files)
-}
-
-/// The entries of `relative_file_paths:` in a bag's `metadata.yaml` (a list
-/// of `- name` lines under it).
-fn listed_files(metadata: &str) -> Vec<String> {
-    let mut lines = metadata
-        .lines()
-        .skip_while(|l| l.trim() != "relative_file_paths:");
-    let _ = lines.next();
-    lines
-        .map_while(|l| l.trim().strip_prefix("- "))
-        .map(|f| f.trim().trim_matches(['\'', '"']).to_string())
-        .collect()
-}
 
 fn open(path: &Path) -> Result<Connection, String> {
     Connection::open_with_flags(
@@ -327,17 +274,5 @@ impl Iterator for BagReader {
             return Some(scan_item(decode_scan(&row.data), time, named));
         }
         Some(odometry_item(decode_odometry(&row.data), time, named))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn metadata_lists_the_files_in_order() {
-        let text = "rosbag2_bagfile_information:\n  relative_file_paths:\n  - b_0.db3\n  - 'b_1.db3'\n  starting_time:\n";
-        assert_eq!(listed_files(text), ["b_0.db3", "b_1.db3"]);
-        assert!(listed_files("version: 5\n").is_empty());
     }
 }

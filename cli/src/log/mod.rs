@@ -11,6 +11,7 @@
 //! and the rest were processed; 2 unusable arguments or file, or no usable
 //! scan.
 
+pub mod bagdir;
 pub mod carmen;
 pub mod db3;
 pub mod evo;
@@ -124,6 +125,17 @@ impl Event {
             other => other,
         }
     }
+
+    /// The event with its record named in `file` (a split bag's part).
+    fn in_file(self, file: &str) -> Self {
+        match self {
+            Event::Scan(mut s) => {
+                s.name = format!("{file}: {}", s.name);
+                Event::Scan(s)
+            }
+            other => other,
+        }
+    }
 }
 
 /// A record of the file that could not be used.
@@ -147,17 +159,18 @@ impl RecordError {
 /// The format of a recording.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Format {
-    /// By content: a directory or SQLite file is a ROS 2 bag in SQLite, MCAP
-    /// and ROS 1 bags by their magic bytes, anything else CARMEN.
+    /// By content: a directory is a ROS 2 bag, SQLite, MCAP and ROS 1 bags
+    /// are known by their first bytes, anything else is read as CARMEN.
     Auto,
     /// CARMEN log (`FLASER`, `ROBOTLASER1`, `ODOM` lines), plain or gzip.
     Carmen,
-    /// ROS 2 bag in MCAP.
+    /// ROS 2 bag in MCAP: its `.mcap` file, or its directory
+    /// (`metadata.yaml` and `.mcap` files, read in the order it lists them).
     Mcap,
     /// ROS 1 bag (format 2.0; chunks uncompressed, bz2 or lz4).
     Ros1,
-    /// ROS 2 bag in SQLite: its directory (`metadata.yaml`, `.db3` files)
-    /// or one `.db3` file.
+    /// ROS 2 bag in SQLite: its directory (`metadata.yaml` and `.db3`
+    /// files, read in the order it lists them) or one `.db3` file.
     Db3,
     /// Raw LDRobot LD06 / LD19 / STL-19P capture: one scan per revolution.
     Ld06,
@@ -193,10 +206,9 @@ pub enum PriorArg {
 /// `log FILE`.
 #[derive(Clone, Debug, Args)]
 pub struct LogArgs {
-    /// The recording: a CARMEN log (`.gz` read directly), a ROS 2 bag
-    /// (`.mcap`, or the directory of one in SQLite, or its `.db3` file), a
-    /// ROS 1 bag (`.bag`), or a raw lidar capture (`--format
-    /// ld06|rplidar|ydlidar|xv11`).
+    /// The recording: a CARMEN log (`.gz` read directly), a ROS 2 bag (its
+    /// directory, or its `.mcap` or `.db3` file), a ROS 1 bag (`.bag`), or a
+    /// raw lidar capture (`--format ld06|rplidar|ydlidar|xv11`).
     pub file: PathBuf,
     /// Input format.
     #[arg(long, value_enum, default_value_t = Format::Auto)]
@@ -585,9 +597,13 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
         }
         bar
     };
-    // A directory is a ROS 2 bag in SQLite (`metadata.yaml` and `.db3` files).
-    let directory = args.file.is_dir();
-    let mut input: Box<dyn BufRead> = if directory {
+    // A directory is a ROS 2 bag (`metadata.yaml` and `.db3` or `.mcap` files).
+    let directory = args
+        .file
+        .is_dir()
+        .then(|| bagdir::files(&args.file))
+        .transpose()?;
+    let mut input: Box<dyn BufRead> = if directory.is_some() {
         Box::new(io::empty())
     } else {
         open(&args.file, &bar)?
@@ -595,18 +611,31 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
     let head = input
         .fill_buf()
         .map_err(|e| Fatal::io(format!("{file}: cannot read: {e}")))?;
-    let format = match args.format {
-        Format::Auto if directory || head.starts_with(db3::MAGIC) => Format::Db3,
-        Format::Auto if head.starts_with(MCAP_MAGIC) => Format::Mcap,
-        Format::Auto if head.starts_with(ros1::MAGIC) => Format::Ros1,
-        Format::Auto => Format::Carmen,
-        f => f,
+    let format = match (args.format, &directory) {
+        (Format::Auto, Some((bagdir::Storage::Sqlite, _))) => Format::Db3,
+        (Format::Auto, Some((bagdir::Storage::Mcap, _))) => Format::Mcap,
+        (Format::Auto, None) if head.starts_with(db3::MAGIC) => Format::Db3,
+        (Format::Auto, None) if head.starts_with(MCAP_MAGIC) => Format::Mcap,
+        (Format::Auto, None) if head.starts_with(ros1::MAGIC) => Format::Ros1,
+        (Format::Auto, None) => Format::Carmen,
+        (f, _) => f,
     };
-    if directory && format != Format::Db3 {
-        return Err(Fatal::usage(format!(
-            "{file}: a directory; only a ROS 2 bag in SQLite (--format db3) is one"
-        )));
-    }
+    let from_directory = directory.is_some();
+    let files = match directory {
+        Some((storage, files)) => {
+            let expected = match storage {
+                bagdir::Storage::Sqlite => Format::Db3,
+                bagdir::Storage::Mcap => Format::Mcap,
+            };
+            if format != expected {
+                return Err(Fatal::usage(format!(
+                    "{file}: a ROS 2 bag directory in {storage:?} storage, not {format:?}"
+                )));
+            }
+            files
+        }
+        None => vec![args.file.clone()],
+    };
     let mut run = Run {
         args,
         file: file.clone(),
@@ -654,27 +683,59 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
         }
         Format::Db3 | Format::Mcap | Format::Ros1 => {
             let events: Box<dyn Iterator<Item = ros2::BagItem>> = if format == Format::Db3 {
-                let files = db3::bag_files(&args.file)?;
                 let topics = db3::topics(&files)?;
                 let (topic, odom) = choose_topics(args, &file, &topics, BagTypes::ROS2)?;
                 Box::new(db3::BagReader::new(files, &file, &topic, odom.as_deref()))
-            } else {
-                let ros1 = format == Format::Ros1;
-                let (topics, types) = if ros1 {
-                    (ros1::topics(input, &file)?, BagTypes::ROS1)
-                } else {
-                    (ros2::topics(input, &file)?, BagTypes::ROS2)
-                };
-                let (topic, odom) = choose_topics(args, &file, &topics, types)?;
+            } else if format == Format::Ros1 {
+                let topics = ros1::topics(input, &file)?;
+                let (topic, odom) = choose_topics(args, &file, &topics, BagTypes::ROS1)?;
                 // The topics took one pass; the messages take another.
                 bar.reset();
                 let input = open(&args.file, &bar)?;
-                let odom = odom.as_deref();
-                if ros1 {
-                    Box::new(ros1::BagReader::new(input, &file, &topic, odom))
+                Box::new(ros1::BagReader::new(input, &file, &topic, odom.as_deref()))
+            } else {
+                // MCAP: one file, or the files of a bag directory in order.
+                let topics = if from_directory {
+                    let mut all: BTreeMap<String, ros2::TopicInfo> = BTreeMap::new();
+                    for path in &files {
+                        let name = path.display().to_string();
+                        for (t, info) in ros2::topics(open(path, &bar)?, &name)? {
+                            let merged = all.entry(t).or_default();
+                            merged.schema = info.schema;
+                            merged.count += info.count;
+                        }
+                    }
+                    all
                 } else {
-                    Box::new(ros2::BagReader::new(input, &file, &topic, odom))
-                }
+                    ros2::topics(input, &file)?
+                };
+                let (topic, odom) = choose_topics(args, &file, &topics, BagTypes::ROS2)?;
+                let bar = bar.clone();
+                // A split bag's records are named with their file.
+                let split = files.len() > 1;
+                Box::new(files.into_iter().flat_map(move |path| {
+                    bar.reset();
+                    let name = path.display().to_string();
+                    let part = path
+                        .file_name()
+                        .map(|n| n.to_string_lossy().into_owned())
+                        .filter(|_| split);
+                    let reader: Box<dyn Iterator<Item = ros2::BagItem>> = match open(&path, &bar) {
+                        Ok(input) => {
+                            Box::new(ros2::BagReader::new(input, &name, &topic, odom.as_deref()))
+                        }
+                        Err(e) => Box::new(std::iter::once(Err(e))),
+                    };
+                    reader.map(move |item| match &part {
+                        Some(part) => item.map(|r| {
+                            r.map(|e| e.in_file(part)).map_err(|mut e| {
+                                e.record = format!("{part}: {}", e.record);
+                                e
+                            })
+                        }),
+                        None => item,
+                    })
+                }))
             };
             let events = events.map(|item| {
                 item.map(|event| {
