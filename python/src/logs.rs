@@ -1,13 +1,12 @@
 //! The recordings `hough-heading log` reads (CARMEN logs, plain or gzip;
-//! ROS 2 bags in MCAP), read by the tool's own readers: the scans as numpy
-//! arrays with their time, odometry and the log's own pose.
+//! ROS 1 bags; ROS 2 bags in MCAP or SQLite, or their directories), read by
+//! the tool's own opener and readers: the scans as numpy arrays with their
+//! time, odometry and the log's own pose.
 
-use std::io::BufRead;
 use std::path::PathBuf;
 
 use clap::Parser;
-use hough_heading_cli::log::carmen::{CarmenReader, FlaserGeometry};
-use hough_heading_cli::log::{self, ros2, Event, LogArgs, LogScan, Pose, RecordError};
+use hough_heading_cli::log::{self, Event, LogArgs, LogScan, Pose, RecordError};
 use hough_heading_cli::Fatal;
 use indicatif::ProgressBar;
 use numpy::PyArray1;
@@ -37,58 +36,39 @@ struct Read {
 fn read(args: &LogArgs) -> Result<Read, Fatal> {
     let file = args.file.display().to_string();
     let bar = ProgressBar::hidden();
-    let mut input = log::open(&args.file, &bar)?;
-    let head = input
-        .fill_buf()
-        .map_err(|e| Fatal::io(format!("{file}: cannot read: {e}")))?;
-    let mcap = match args.format {
-        log::Format::Auto => head.starts_with(log::MCAP_MAGIC),
-        log::Format::Mcap => true,
-        log::Format::Carmen => false,
-        log::Format::Ld06 | log::Format::Rplidar | log::Format::Ydlidar | log::Format::Xv11 => {
+    let recording = match log::open_recording(args, &bar)? {
+        log::Opened::Recording(r) => r,
+        log::Opened::Capture(..) => {
             return Err(Fatal::usage(format!(
                 "{file}: raw lidar captures are not read here; convert one with \
                  `hough-heading wire --protocol PROTOCOL CAPTURE --out LOG` and read LOG"
             )))
         }
     };
-    let laser_offset = args.laser_offset.as_ref().map(|v| [v[0], v[1], v[2]]);
     let mut out = Read {
         scans: Vec::new(),
         errors: Vec::new(),
-        format: if mcap { "mcap" } else { "carmen" },
-        topic: None,
+        format: match recording.format {
+            log::Format::Mcap => "mcap",
+            log::Format::Ros1 => "ros1",
+            log::Format::Db3 => "db3",
+            _ => "carmen",
+        },
+        topic: recording.topic,
     };
     let mut last_odom: Option<Pose> = None;
-    let mut take = |out: &mut Read, event: Result<Event, RecordError>| match event {
-        Ok(Event::Scan(mut scan)) => {
-            // As `log` pairs them: a scan without its own odometry gets the
-            // latest odometry message's pose.
-            if scan.odom.is_none() {
-                scan.odom = last_odom;
+    for item in recording.events {
+        match item? {
+            Ok(Event::Scan(mut scan)) => {
+                // As `log` pairs them: a scan without its own odometry gets
+                // the latest odometry message's pose.
+                if scan.odom.is_none() {
+                    scan.odom = last_odom;
+                }
+                out.scans.push(scan);
             }
-            if let Some(o) = laser_offset {
-                scan.record.laser_offset = o;
-            }
-            out.scans.push(scan);
-        }
-        Ok(Event::Odometry { pose, .. }) => last_odom = Some(pose),
-        Err(e) => out.errors.push(e),
-    };
-    if mcap {
-        let (topic, odom_topic) = log::choose_topics(args, &file, input)?;
-        let input = log::open(&args.file, &bar)?;
-        for item in ros2::BagReader::new(input, &file, &topic, odom_topic.as_deref()) {
-            take(&mut out, item?);
-        }
-        out.topic = Some(topic);
-    } else {
-        let geometry = FlaserGeometry {
-            max_range: args.max_range,
-            laser_offset: laser_offset.unwrap_or([0.0; 3]),
-        };
-        for event in CarmenReader::new(input, geometry) {
-            take(&mut out, event);
+            Ok(Event::Odometry { pose, .. }) => last_odom = Some(pose),
+            Err(e) => out.errors.push(e),
         }
     }
     Ok(out)

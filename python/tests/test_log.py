@@ -65,6 +65,27 @@ def test_a_bag_s_only_scan_topic_is_used():
         hh.read_log(LOGS / "seattle-bag.mcap", topic="/nope")
 
 
+@pytest.mark.parametrize(
+    "name, fmt",
+    [
+        ("seattle-bag.bag", "ros1"),
+        ("seattle-bag-lz4.bag", "ros1"),
+        ("seattle-bag-db3", "db3"),
+        ("seattle-bag-db3/seattle-bag-db3.db3", "db3"),
+        ("seattle-bag-dir", "mcap"),
+    ],
+)
+def test_other_bag_kinds_hold_the_mcap_bag_s_scans(name, fmt):
+    # The same messages written by the `rosbags` package (ROS 1, SQLite, an
+    # MCAP bag directory): the same scans, times and odometry.
+    want = hh.read_log(LOGS / "seattle-bag.mcap")
+    log = hh.read_log(LOGS / name)
+    assert (log.format, log.topic, len(log), log.errors) == (fmt, "/scan", 12, [])
+    for a, b in zip(log, want):
+        assert np.array_equal(a.ranges, b.ranges, equal_nan=True)
+        assert (a.time, a.odom) == (b.time, b.odom)
+
+
 def test_a_bag_s_unusable_scan_is_a_listed_error_as_in_the_tool():
     log = hh.read_log(LOGS / "nan-scan.mcap")
     # The all-NaN scan is the reader's error (as `log` reports it); the

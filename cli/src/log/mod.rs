@@ -542,6 +542,192 @@ pub fn open(path: &Path, bar: &ProgressBar) -> Result<Box<dyn BufRead>, Fatal> {
 /// The MCAP magic bytes.
 pub const MCAP_MAGIC: &[u8] = b"\x89MCAP0\r\n";
 
+/// A recording opened for reading: a raw lidar capture (read by
+/// [`crate::wire::WireReader`]), or a log or bag as [`Event`]s.
+pub enum Opened {
+    /// A CARMEN log or a bag.
+    Recording(Recording),
+    /// A raw lidar capture: its protocol and bytes.
+    Capture(crate::wire::Protocol, Box<dyn BufRead>),
+}
+
+/// A CARMEN log or a bag, opened: its format, a bag's scan topic, and its
+/// events (scans carry `--laser-offset`).
+pub struct Recording {
+    /// The format read (never [`Format::Auto`]).
+    pub format: Format,
+    /// The scan topic of a bag.
+    pub topic: Option<String>,
+    /// The events in file order.
+    pub events: Box<dyn Iterator<Item = ros2::BagItem>>,
+}
+
+/// Opens `args.file` as `log` reads it: the format by `--format` or by
+/// content, a bag's topics chosen ([`choose_topics`]), `bar` counting the
+/// bytes read.
+///
+/// # Errors
+/// A [`Fatal`] error when the file cannot be read, a bag directory is
+/// unusable or contradicts `--format`, or a bag's topics are unusable.
+pub fn open_recording(args: &LogArgs, bar: &ProgressBar) -> Result<Opened, Fatal> {
+    let file = args.file.display().to_string();
+    let laser_offset = args
+        .laser_offset
+        .as_ref()
+        .filter(|v| v.len() == 3)
+        .map(|v| [v[0], v[1], v[2]]);
+    // A directory is a ROS 2 bag (`metadata.yaml` and `.db3` or `.mcap` files).
+    let directory = args
+        .file
+        .is_dir()
+        .then(|| bagdir::files(&args.file))
+        .transpose()?;
+    let mut input: Box<dyn BufRead> = if directory.is_some() {
+        Box::new(io::empty())
+    } else {
+        open(&args.file, bar)?
+    };
+    let head = input
+        .fill_buf()
+        .map_err(|e| Fatal::io(format!("{file}: cannot read: {e}")))?;
+    let format = match (args.format, &directory) {
+        (Format::Auto, Some((bagdir::Storage::Sqlite, _))) => Format::Db3,
+        (Format::Auto, Some((bagdir::Storage::Mcap, _))) => Format::Mcap,
+        (Format::Auto, None) if head.starts_with(db3::MAGIC) => Format::Db3,
+        (Format::Auto, None) if head.starts_with(MCAP_MAGIC) => Format::Mcap,
+        (Format::Auto, None) if head.starts_with(ros1::MAGIC) => Format::Ros1,
+        (Format::Auto, None) => Format::Carmen,
+        (f, _) => f,
+    };
+    let from_directory = directory.is_some();
+    let files = match directory {
+        Some((storage, files)) => {
+            let expected = match storage {
+                bagdir::Storage::Sqlite => Format::Db3,
+                bagdir::Storage::Mcap => Format::Mcap,
+            };
+            if format != expected {
+                return Err(Fatal::usage(format!(
+                    "{file}: a ROS 2 bag directory in {storage:?} storage, not {format:?}"
+                )));
+            }
+            files
+        }
+        None => vec![args.file.clone()],
+    };
+    let format = if format == Format::Auto {
+        Format::Carmen
+    } else {
+        format
+    };
+    let (events, topic): (Box<dyn Iterator<Item = ros2::BagItem>>, _) = match format {
+        Format::Ld06 | Format::Rplidar | Format::Ydlidar | Format::Xv11 => {
+            let protocol = match format {
+                Format::Ld06 => crate::wire::Protocol::Ld06,
+                Format::Rplidar => crate::wire::Protocol::Rplidar,
+                Format::Ydlidar => crate::wire::Protocol::Ydlidar,
+                _ => crate::wire::Protocol::Xv11,
+            };
+            return Ok(Opened::Capture(protocol, input));
+        }
+        Format::Db3 => {
+            let topics = db3::topics(&files)?;
+            let (topic, odom) = choose_topics(args, &file, &topics, BagTypes::ROS2)?;
+            let reader = db3::BagReader::new(files, &file, &topic, odom.as_deref());
+            (Box::new(reader), Some(topic))
+        }
+        Format::Ros1 => {
+            let topics = ros1::topics(input, &file)?;
+            let (topic, odom) = choose_topics(args, &file, &topics, BagTypes::ROS1)?;
+            // The topics took one pass; the messages take another.
+            bar.reset();
+            let input = open(&args.file, bar)?;
+            let reader = ros1::BagReader::new(input, &file, &topic, odom.as_deref());
+            (Box::new(reader), Some(topic))
+        }
+        Format::Mcap => {
+            // One file, or the files of a bag directory in order.
+            let topics = if from_directory {
+                let mut all: BTreeMap<String, ros2::TopicInfo> = BTreeMap::new();
+                for path in &files {
+                    let name = path.display().to_string();
+                    for (t, info) in ros2::topics(open(path, bar)?, &name)? {
+                        let merged = all.entry(t).or_default();
+                        merged.schema = info.schema;
+                        merged.count += info.count;
+                    }
+                }
+                all
+            } else {
+                ros2::topics(input, &file)?
+            };
+            let (topic, odom) = choose_topics(args, &file, &topics, BagTypes::ROS2)?;
+            (mcap_events(files, bar, topic.clone(), odom), Some(topic))
+        }
+        Format::Carmen | Format::Auto => {
+            let geometry = FlaserGeometry {
+                max_range: args.max_range,
+                laser_offset: laser_offset.unwrap_or([0.0; 3]),
+            };
+            let events = CarmenReader::new(input, geometry).map(Ok);
+            return Ok(Opened::Recording(Recording {
+                format,
+                topic: None,
+                events: Box::new(events),
+            }));
+        }
+    };
+    let events = events.map(move |item| {
+        item.map(|event| {
+            event.map(|e| match (e, laser_offset) {
+                (Event::Scan(mut s), Some(o)) => {
+                    s.record.laser_offset = o;
+                    Event::Scan(s)
+                }
+                (e, _) => e,
+            })
+        })
+    });
+    Ok(Opened::Recording(Recording {
+        format,
+        topic,
+        events: Box::new(events),
+    }))
+}
+
+/// The events of MCAP `files` read in order (a split bag's records named
+/// with their file).
+fn mcap_events(
+    files: Vec<PathBuf>,
+    bar: &ProgressBar,
+    topic: String,
+    odom: Option<String>,
+) -> Box<dyn Iterator<Item = ros2::BagItem>> {
+    let bar = bar.clone();
+    let split = files.len() > 1;
+    Box::new(files.into_iter().flat_map(move |path| {
+        bar.reset();
+        let name = path.display().to_string();
+        let part = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .filter(|_| split);
+        let reader: Box<dyn Iterator<Item = ros2::BagItem>> = match open(&path, &bar) {
+            Ok(input) => Box::new(ros2::BagReader::new(input, &name, &topic, odom.as_deref())),
+            Err(e) => Box::new(std::iter::once(Err(e))),
+        };
+        reader.map(move |item| match &part {
+            Some(part) => item.map(|r| {
+                r.map(|e| e.in_file(part)).map_err(|mut e| {
+                    e.record = format!("{part}: {}", e.record);
+                    e
+                })
+            }),
+            None => item,
+        })
+    }))
+}
+
 /// Runs `log`; the number of failed records and pairs.
 ///
 /// # Errors
@@ -597,45 +783,7 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
         }
         bar
     };
-    // A directory is a ROS 2 bag (`metadata.yaml` and `.db3` or `.mcap` files).
-    let directory = args
-        .file
-        .is_dir()
-        .then(|| bagdir::files(&args.file))
-        .transpose()?;
-    let mut input: Box<dyn BufRead> = if directory.is_some() {
-        Box::new(io::empty())
-    } else {
-        open(&args.file, &bar)?
-    };
-    let head = input
-        .fill_buf()
-        .map_err(|e| Fatal::io(format!("{file}: cannot read: {e}")))?;
-    let format = match (args.format, &directory) {
-        (Format::Auto, Some((bagdir::Storage::Sqlite, _))) => Format::Db3,
-        (Format::Auto, Some((bagdir::Storage::Mcap, _))) => Format::Mcap,
-        (Format::Auto, None) if head.starts_with(db3::MAGIC) => Format::Db3,
-        (Format::Auto, None) if head.starts_with(MCAP_MAGIC) => Format::Mcap,
-        (Format::Auto, None) if head.starts_with(ros1::MAGIC) => Format::Ros1,
-        (Format::Auto, None) => Format::Carmen,
-        (f, _) => f,
-    };
-    let from_directory = directory.is_some();
-    let files = match directory {
-        Some((storage, files)) => {
-            let expected = match storage {
-                bagdir::Storage::Sqlite => Format::Db3,
-                bagdir::Storage::Mcap => Format::Mcap,
-            };
-            if format != expected {
-                return Err(Fatal::usage(format!(
-                    "{file}: a ROS 2 bag directory in {storage:?} storage, not {format:?}"
-                )));
-            }
-            files
-        }
-        None => vec![args.file.clone()],
-    };
+    let opened = open_recording(args, &bar)?;
     let mut run = Run {
         args,
         file: file.clone(),
@@ -659,96 +807,14 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
         bar: bar.clone(),
     };
     let start = Instant::now();
-    let scans = match format {
-        Format::Carmen | Format::Auto => {
-            let geometry = FlaserGeometry {
-                max_range: args.max_range,
-                laser_offset: laser_offset.unwrap_or([0.0; 3]),
-            };
-            let events = CarmenReader::new(input, geometry).map(Ok);
-            stream(&mut run, events)?
-        }
-        Format::Ld06 | Format::Rplidar | Format::Ydlidar | Format::Xv11 => {
-            let protocol = match format {
-                Format::Ld06 => crate::wire::Protocol::Ld06,
-                Format::Rplidar => crate::wire::Protocol::Rplidar,
-                Format::Ydlidar => crate::wire::Protocol::Ydlidar,
-                _ => crate::wire::Protocol::Xv11,
-            };
+    let scans = match opened {
+        Opened::Recording(recording) => stream(&mut run, recording.events)?,
+        Opened::Capture(protocol, input) => {
             let offset = laser_offset.unwrap_or([0.0; 3]);
             let mut reader = crate::wire::WireReader::new(input, protocol, args.max_range, offset);
             let scans = stream(&mut run, reader.by_ref().map(Ok))?;
             eprintln!("hough-heading: {file}: {}", reader.report());
             scans
-        }
-        Format::Db3 | Format::Mcap | Format::Ros1 => {
-            let events: Box<dyn Iterator<Item = ros2::BagItem>> = if format == Format::Db3 {
-                let topics = db3::topics(&files)?;
-                let (topic, odom) = choose_topics(args, &file, &topics, BagTypes::ROS2)?;
-                Box::new(db3::BagReader::new(files, &file, &topic, odom.as_deref()))
-            } else if format == Format::Ros1 {
-                let topics = ros1::topics(input, &file)?;
-                let (topic, odom) = choose_topics(args, &file, &topics, BagTypes::ROS1)?;
-                // The topics took one pass; the messages take another.
-                bar.reset();
-                let input = open(&args.file, &bar)?;
-                Box::new(ros1::BagReader::new(input, &file, &topic, odom.as_deref()))
-            } else {
-                // MCAP: one file, or the files of a bag directory in order.
-                let topics = if from_directory {
-                    let mut all: BTreeMap<String, ros2::TopicInfo> = BTreeMap::new();
-                    for path in &files {
-                        let name = path.display().to_string();
-                        for (t, info) in ros2::topics(open(path, &bar)?, &name)? {
-                            let merged = all.entry(t).or_default();
-                            merged.schema = info.schema;
-                            merged.count += info.count;
-                        }
-                    }
-                    all
-                } else {
-                    ros2::topics(input, &file)?
-                };
-                let (topic, odom) = choose_topics(args, &file, &topics, BagTypes::ROS2)?;
-                let bar = bar.clone();
-                // A split bag's records are named with their file.
-                let split = files.len() > 1;
-                Box::new(files.into_iter().flat_map(move |path| {
-                    bar.reset();
-                    let name = path.display().to_string();
-                    let part = path
-                        .file_name()
-                        .map(|n| n.to_string_lossy().into_owned())
-                        .filter(|_| split);
-                    let reader: Box<dyn Iterator<Item = ros2::BagItem>> = match open(&path, &bar) {
-                        Ok(input) => {
-                            Box::new(ros2::BagReader::new(input, &name, &topic, odom.as_deref()))
-                        }
-                        Err(e) => Box::new(std::iter::once(Err(e))),
-                    };
-                    reader.map(move |item| match &part {
-                        Some(part) => item.map(|r| {
-                            r.map(|e| e.in_file(part)).map_err(|mut e| {
-                                e.record = format!("{part}: {}", e.record);
-                                e
-                            })
-                        }),
-                        None => item,
-                    })
-                }))
-            };
-            let events = events.map(|item| {
-                item.map(|event| {
-                    event.map(|e| match (e, laser_offset) {
-                        (Event::Scan(mut s), Some(o)) => {
-                            s.record.laser_offset = o;
-                            Event::Scan(s)
-                        }
-                        (e, _) => e,
-                    })
-                })
-            });
-            stream(&mut run, events)?
         }
     };
     let _ = run.out.flush();

@@ -882,12 +882,15 @@ def read_log(
     laser_offset: Optional[Sequence[float]] = None,
 ) -> Log:
     """Reads what ``hough-heading log`` reads, with its readers: a CARMEN
-    log (``FLASER``, ``ROBOTLASER1``, ``ODOM`` lines; plain or gzip) or a
-    ROS 2 bag in MCAP (``sensor_msgs/msg/LaserScan`` and
-    ``nav_msgs/msg/Odometry``, CDR).
+    log (``FLASER``, ``ROBOTLASER1``, ``ODOM`` lines; plain or gzip), a
+    ROS 2 bag (its directory, or its ``.mcap`` or ``.db3`` file;
+    ``sensor_msgs/msg/LaserScan`` and ``nav_msgs/msg/Odometry``, CDR) or a
+    ROS 1 bag (``sensor_msgs/LaserScan`` or ``MultiEchoLaserScan``,
+    ``nav_msgs/Odometry``).
 
-    ``format``: ``'auto'`` (MCAP by its magic bytes, otherwise CARMEN),
-    ``'carmen'`` or ``'mcap'``. ``topic``: the bag's scan topic (default:
+    ``format``: ``'auto'`` (a directory is a ROS 2 bag; SQLite, MCAP and
+    ROS 1 bags by their first bytes; otherwise CARMEN), ``'carmen'``,
+    ``'mcap'``, ``'db3'`` or ``'ros1'``. ``topic``: the bag's scan topic (default:
     its only ``LaserScan`` topic; with several, ``ValueError`` lists them).
     ``odom_topic``: default ``/odom`` when the bag has it. ``max_range``
     and ``laser_offset = (x, y, theta)``: for CARMEN ``FLASER`` lines, which
@@ -901,8 +904,10 @@ def read_log(
     p = os.fspath(path)
     if not os.path.exists(p):
         raise FileNotFoundError(p)
-    if format not in ("auto", "carmen", "mcap"):
-        raise ValueError(f"format={format!r}: expected 'auto', 'carmen' or 'mcap'")
+    if format not in ("auto", "carmen", "mcap", "db3", "ros1"):
+        raise ValueError(
+            f"format={format!r}: expected 'auto', 'carmen', 'mcap', 'db3' or 'ros1'"
+        )
     args = [p, f"--format={format}", f"--max-range={_number(max_range, 'max_range')!r}"]
     if topic is not None:
         args.append(f"--topic={topic}")
