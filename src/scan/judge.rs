@@ -382,8 +382,9 @@ impl Raster {
         current: &Scan<'_>,
         estimate: &Estimate,
     ) -> Option<BeamCheck> {
-        // Other rotations: 5° apart, the estimator's separation of candidates.
-        let separation = Angle::from_degrees(5.0);
+        // Other rotations: 5° apart, the estimator's separation of candidates
+        // (evaluated at compile time: no floating point on the target).
+        const SEPARATION: Angle = Angle::from_degrees(5.0);
         let mut chosen: Option<BeamPose> = None;
         let mut rival: Option<BeamPose> = None;
         let listed = estimate
@@ -394,14 +395,14 @@ impl Raster {
         // refined.
         let in_order = listed
             .clone()
-            .filter(|c| c.translation.is_some() && c.alpha.distance(estimate.alpha) < separation)
+            .filter(|c| c.translation.is_some() && c.alpha.distance(estimate.alpha) < SEPARATION)
             .take(1)
-            .chain(listed.filter(|c| c.alpha.distance(estimate.alpha) >= separation));
+            .chain(listed.filter(|c| c.alpha.distance(estimate.alpha) >= SEPARATION));
         for candidate in in_order {
             let Some((x, y)) = candidate.translation else {
                 continue;
             };
-            let is_chosen = candidate.alpha.distance(estimate.alpha) < separation;
+            let is_chosen = candidate.alpha.distance(estimate.alpha) < SEPARATION;
             let grid = Pose {
                 x,
                 y,
@@ -454,7 +455,7 @@ impl Raster {
                     )
                 })
                 .and_then(Result::ok)
-                .filter(|f| is_chosen || f.alpha.distance(estimate.alpha) >= separation)
+                .filter(|f| is_chosen || f.alpha.distance(estimate.alpha) >= SEPARATION)
                 .and_then(|f| score(f.alpha, (f.translation.x, f.translation.y)));
             let scored = match refined {
                 Some(r) if r.agreement.score() >= best_start.agreement.score() => r,

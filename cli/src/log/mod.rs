@@ -615,11 +615,6 @@ pub fn open_recording(args: &LogArgs, bar: &ProgressBar) -> Result<Opened, Fatal
         }
         None => vec![args.file.clone()],
     };
-    let format = if format == Format::Auto {
-        Format::Carmen
-    } else {
-        format
-    };
     let (events, topic): (Box<dyn Iterator<Item = ros2::BagItem>>, _) = match format {
         Format::Ld06 | Format::Rplidar | Format::Ydlidar | Format::Xv11 => {
             let protocol = match format {
