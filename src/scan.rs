@@ -57,7 +57,7 @@ mod judge;
 mod refine;
 mod sine;
 
-pub use beam::{BeamEnd, ScanBeams, BEAM_FAR_CELLS, BEAM_NEAR_CELLS};
+pub use beam::{BeamEnd, ScanBeams, BEAM_FAR_CELLS, BEAM_MAX_MISSING, BEAM_NEAR_CELLS};
 pub use free::{FreeSpace, FREE_MARGIN_CELLS, FREE_MARGIN_SHIFT};
 pub use judge::{
     BeamAgreement, BeamCheck, BeamPose, BEAM_MATCH_M, BEAM_MIN_SCORE, BEAM_RIVAL_MAX_ROTATION_DEG,
@@ -270,15 +270,26 @@ impl Raster {
         let segments = self.connect.map(|gap| Segments::new(gap, self, W, H));
         let window = Window::new(self.disc, W, H);
         let (mut angle, step) = beams.angles();
+        // The last return and the beams without one since it: a segment
+        // reaches over at most `BEAM_MAX_MISSING` of them.
         let mut previous: Option<(i32, i32)> = None;
+        let mut missing = 0u32;
         for &r in scan.ranges {
             let end = beams.end_at(binary_angle(angle), r);
             angle = angle.wrapping_add(step);
             let BeamEnd::Near { x, y } = end else {
                 count_dropped(&mut stats, end);
-                previous = None;
+                // A return beyond every grid is a depth jump, not a hole.
+                missing = match end {
+                    BeamEnd::Far => u32::MAX,
+                    _ => missing.saturating_add(1),
+                };
+                if missing > BEAM_MAX_MISSING {
+                    previous = None;
+                }
                 continue;
             };
+            missing = 0;
             let counter = if window.put(x, y, grid) {
                 &mut stats.kept
             } else {

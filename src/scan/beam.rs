@@ -46,6 +46,18 @@ pub const BEAM_FAR_CELLS: i32 = 1 << 13;
 /// (`2¹⁴ + 4096`: a range below 2¹⁴ cells from an offset below 4096).
 pub const BEAM_NEAR_CELLS: i32 = (1 << 14) + 4096;
 
+/// Two returns are neighbouring beams when at most this many beams without
+/// a return lie between them: a wall's segment, its free space and the
+/// beam check's four beams around a bearing reach over such holes. A lidar
+/// revolution binned finer than the sensor's own spacing (an LD06's ~450
+/// points in 720 bins, a 360-point turn in 720) leaves every other bin
+/// empty; an empty bin is unmeasured, not a depth jump. Segments stay
+/// bounded in length ([`Raster::connect`]'s gap, `BEAM_SEGMENT_MAX_M`), so
+/// a real jump is still cut there.
+///
+/// [`Raster::connect`]: super::Raster::connect
+pub const BEAM_MAX_MISSING: u32 = 3;
+
 /// Q16: one cell is `1 << 16`.
 const ONE: i32 = 1 << 16;
 /// Ranges of at least 2¹⁴ cells end outside every grid as long as the offset

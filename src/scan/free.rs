@@ -8,8 +8,10 @@
 //! two ends, a half turn in a rectangular room). [`Raster::free_space`]
 //! marks the cells each valid beam crossed, from the sensor to
 //! [`FREE_MARGIN_CELLS`] cells short of the nearest return among itself
-//! and its two neighbours (a wall seen at a grazing angle is not seen
-//! through between two returns); the verification
+//! and its two neighbouring returns (over at most
+//! [`BEAM_MAX_MISSING`](super::BEAM_MAX_MISSING) beams without one; a wall
+//! seen at a grazing angle is not seen through between two returns); the
+//! verification
 //! ([`Estimator::estimate_scans`](crate::Estimator::estimate_scans)) counts
 //! the points of each view that a pose lays on the other view's free cells
 //! (and not within one cell of its walls).
@@ -20,7 +22,7 @@
 //! marks nothing, and cells are marked at steps of at most one cell along
 //! the beam, so a cell the beam only grazed may stay unmarked.
 
-use super::beam::{binary_angle, BeamEnd, ScanBeams};
+use super::beam::{binary_angle, BeamEnd, ScanBeams, BEAM_MAX_MISSING};
 use super::{Raster, Scan};
 use crate::grid::Grid;
 
@@ -70,21 +72,38 @@ impl Raster {
         let (mut angle, step) = beams.angles();
         let mut traced = 0u32;
         // Each beam is traced to the shortest return among itself and its
-        // valid neighbours: where a wall is seen at a grazing angle, the
-        // space between two returns is not seen through.
+        // neighbours (the returns before and after it, over at most
+        // `BEAM_MAX_MISSING` beams without one): where a wall is seen at a
+        // grazing angle, the space between two returns is not seen through.
+        // `current` waits for its next neighbour; `missing` counts the beams
+        // without a return since it.
         let mut previous: Option<Beam> = None;
         let mut current: Option<Beam> = None;
+        let mut missing = 0u32;
         for &r in scan.ranges {
-            let next = match beams.end_at(binary_angle(angle), r) {
-                BeamEnd::Near { x, y } => Some(Beam::new(origin, (x, y))),
-                _ => None,
-            };
+            let end = beams.end_at(binary_angle(angle), r);
             angle = angle.wrapping_add(step);
+            let BeamEnd::Near { x, y } = end else {
+                // A return beyond every grid is a depth jump, not a hole.
+                missing = match end {
+                    BeamEnd::Far => u32::MAX,
+                    _ => missing.saturating_add(1),
+                };
+                if missing > BEAM_MAX_MISSING {
+                    if let Some(beam) = current.take() {
+                        beam.trace(shortest(&[previous, Some(beam)]), max_steps, free);
+                        traced = traced.saturating_add(1);
+                    }
+                    previous = None;
+                }
+                continue;
+            };
+            let next = Beam::new(origin, (x, y));
             if let Some(beam) = current {
-                beam.trace(shortest(&[previous, current, next]), max_steps, free);
+                beam.trace(shortest(&[previous, current, Some(next)]), max_steps, free);
                 traced = traced.saturating_add(1);
             }
-            (previous, current) = (current, next);
+            (previous, current, missing) = (current, Some(next), 0);
         }
         if let Some(beam) = current {
             beam.trace(shortest(&[previous, current]), max_steps, free);

@@ -616,9 +616,10 @@ fn one_way(
 
 impl Segments<'_> {
     /// `p` (Q16 cells, around `beam`: [`Segments::beam_of`]) lies nearer to
-    /// the sensor than each of the four beams around its bearing measured,
-    /// by more than `margin` (Q16 cells, at least 32) plus 1/32 of that
-    /// range; false next to a beam without a near return.
+    /// the sensor than each of the four returns around its bearing
+    /// ([`Segments::ends_around`]) measured, by more than `margin` (Q16
+    /// cells, at least 32) plus 1/32 of that range; false where fewer than
+    /// four near returns are around.
     fn seen_through(&mut self, p: (i64, i64), beam: i64, margin: i64) -> bool {
         let (dx, dy) = (
             p.0 - i64::from(self.origin.0),
@@ -630,8 +631,8 @@ impl Segments<'_> {
         }
         // The nearest of the four ranges, squared.
         let mut nearest_sq = u64::MAX;
-        for k in beam - 1..=beam + 2 {
-            let Some(e) = self.end(k) else {
+        for end in self.ends_around(beam) {
+            let Some(e) = end else {
                 return false;
             };
             let (ex, ey) = (

@@ -12,8 +12,10 @@
 //!    `d = −R(θ)·t`: the estimator's convention turned into the robot's
 //!    motion, [`motion`](crate::motion));
 //! 2. its bearing from the reference sensor picks the reference beams
-//!    `j − 1 … j + 2` around it; of the segments between two consecutive
-//!    valid ones at most [`BEAM_SEGMENT_MAX_M`] long, the one whose
+//!    `j − 1 … j + 2` around it (the four nearest returns, reaching over
+//!    at most [`BEAM_MAX_MISSING`] beams without one between two); of the
+//!    segments between two consecutive ones at most [`BEAM_SEGMENT_MAX_M`]
+//!    long, the one whose
 //!    midpoint is nearest gives the signed distance `r = n·(p − a)` to its
 //!    line;
 //! 3. points farther than three times the median `|r|` of the previous
@@ -42,7 +44,7 @@
 //! refine`). Cost on the microcontroller: `budgets/TABLE.md`, real-scan
 //! table (`examples/real_scans.rs` refines every pair).
 
-use super::beam::{BeamEnd, ScanBeams};
+use super::beam::{BeamEnd, ScanBeams, BEAM_MAX_MISSING};
 use super::sine::sin_cos;
 use super::{Raster, Scan};
 use crate::angle::Angle;
@@ -202,6 +204,33 @@ impl Segments<'_> {
         end
     }
 
+    /// The four returns around `beam`, in beam order: the two nearest at or
+    /// before it and the two nearest after it, each found within
+    /// [`BEAM_MAX_MISSING`] beams without a return of the one before
+    /// (`None` from where the search found none). On a scan without holes,
+    /// beams `beam − 1 … beam + 2`.
+    pub(super) fn ends_around(&mut self, beam: i64) -> [Option<(i32, i32)>; 4] {
+        let mut ends = [None; 4];
+        let reach = i64::from(BEAM_MAX_MISSING) + 1;
+        for (slots, direction) in [([1, 0], -1), ([2, 3], 1)] {
+            // The search starts at `beam` going back, at `beam + 1` going on.
+            let mut k = if direction < 0 { beam + 1 } else { beam };
+            for slot in slots {
+                let found = (0..reach).find_map(|_| {
+                    k += direction;
+                    self.end(k)
+                });
+                let Some(end) = found else {
+                    break;
+                };
+                if let Some(e) = ends.get_mut(slot) {
+                    *e = Some(end);
+                }
+            }
+        }
+        ends
+    }
+
     /// The beam whose direction is at or just before `bearing` (2³² = one
     /// turn), give or take one, −1 just before beam 0; `None` outside the
     /// field of view. One multiplication by the step's reciprocal (exact
@@ -250,13 +279,9 @@ impl Segments<'_> {
     pub(super) fn nearest_around(&mut self, p: (i64, i64), beam: i64) -> Option<(i64, (i64, i64))> {
         // (squared distance to the midpoint, start, direction)
         let mut best: Option<(u32, Point, Point)> = None;
-        let mut b = self.end(beam - 1);
-        let mut k = beam - 1;
-        while k <= beam + 1 {
-            let a = b;
-            b = self.end(k + 1);
-            k += 1;
-            let (Some(a), Some(b)) = (a, b) else {
+        let ends = self.ends_around(beam);
+        for pair in ends.windows(2) {
+            let (Some(a), Some(b)) = (pair[0], pair[1]) else {
                 continue;
             };
             let (a, b) = (
