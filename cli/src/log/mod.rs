@@ -13,6 +13,7 @@
 
 pub mod bagdir;
 pub mod carmen;
+pub mod chain;
 pub mod db3;
 pub mod evo;
 pub mod ros1;
@@ -37,6 +38,7 @@ use super::scans::{self, Check, OutputLine, PairRecord, RasterOptions, ScanRecor
 use super::summary::{Method, Summary};
 use super::{BeamArgs, EstimatorArgs, Fatal, ScanGridArgs};
 use carmen::{CarmenReader, FlaserGeometry};
+use chain::{Chain, ChainLine};
 use trajectory::Trajectory;
 
 /// A planar pose: metres and radians.
@@ -192,6 +194,10 @@ pub enum PairsArg {
     /// Every pair at most `--window` scans (and `--window-s` seconds) apart
     /// (loop-closure candidates).
     Window,
+    /// Keyframe odometry: each scan against the current keyframe, a new
+    /// keyframe when the overlap falls below 0.6 or an estimate is flagged;
+    /// with the motion prior (`--prior motion` is implied).
+    Keyframes,
 }
 
 /// Where the rotation prior comes from.
@@ -201,6 +207,12 @@ pub enum PriorArg {
     None,
     /// The log's odometry delta between the two scans.
     Odom,
+    /// Constant velocity: the chain's last step, repeated (scaled by the
+    /// scans' times when known). Consecutive pairs and keyframes only: a
+    /// flagged pair, or one beyond 3σ of the prediction, is estimated again
+    /// with it, and a flagged answer no candidate of which lies within 3σ
+    /// is replaced by the prediction (marked in the line's `chain`).
+    Motion,
 }
 
 /// `log FILE`.
@@ -237,12 +249,17 @@ pub struct LogArgs {
     #[arg(long, value_name = "SECONDS")]
     pub window_s: Option<f64>,
     /// `odom`: the odometry's rotation picks among the candidates (within
-    /// 3 × `--prior-sigma`).
+    /// 3 × `--prior-sigma`); `motion`: the chain's constant-velocity
+    /// prediction does (`--pairs keyframes` implies it).
     #[arg(long, value_enum, default_value_t = PriorArg::None)]
     pub prior: PriorArg,
-    /// One standard deviation of the odometry prior, degrees.
-    #[arg(long, value_name = "DEGREES", default_value_t = 10.0)]
-    pub prior_sigma: f64,
+    /// One standard deviation of the prior, degrees (default 10 for `odom`,
+    /// 30 for `motion` and keyframes).
+    #[arg(long, value_name = "DEGREES")]
+    pub prior_sigma: Option<f64>,
+    /// Shorthand for `--pairs keyframes`.
+    #[arg(long, conflicts_with = "pairs")]
+    pub keyframes: bool,
     /// Writes the chained consecutive estimates as poses: `FILE.tum` (TUM,
     /// `t x y z qx qy qz qw`, times from the recording) or `FILE.kitti`
     /// (KITTI rows) for evo, with `FILE-reference` (the log's poses) and
@@ -331,7 +348,14 @@ pub struct LogLine {
     /// `-corrected` log).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub log_pose: Option<Delta>,
+    /// What the chain made of the pair (`--prior motion`, `--pairs
+    /// keyframes`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub chain: Option<ChainLine>,
 }
+
+/// A pair's estimate, or why there is none.
+type PairResult = Result<Vec<scans::PairEstimate>, String>;
 
 /// A scan kept for pairing, with its index.
 type Kept = (usize, Arc<LogScan>);
@@ -376,11 +400,23 @@ struct Run<'a> {
     failed: usize,
     summary: Summary,
     trajectory: Option<Trajectory>,
+    /// The chain of `--prior motion` and `--pairs keyframes`.
+    chain: Option<Chain>,
     stdout_closed: bool,
     bar: ProgressBar,
 }
 
 impl Run<'_> {
+    /// The first scan of a chain (consecutive or keyframe pairs).
+    fn start(&mut self, first: &Kept) {
+        if let Some(t) = &mut self.trajectory {
+            t.start(first);
+        }
+        if let Some(c) = &mut self.chain {
+            c.start(first);
+        }
+    }
+
     /// Reports a record that could not be used, after the pairs before it.
     fn record_error(&mut self, error: RecordError) {
         self.pending.push(Pending::Error(error));
@@ -403,7 +439,7 @@ impl Run<'_> {
         let prior = match (self.args.prior, odom) {
             (PriorArg::Odom, Some(d)) => Some(Prior {
                 alpha: Angle::from_degrees(-d.theta.to_degrees() as f32),
-                sigma: Angle::from_degrees(self.args.prior_sigma as f32),
+                sigma: Angle::from_degrees(self.args.prior_sigma() as f32),
             }),
             _ => None,
         };
@@ -444,7 +480,10 @@ impl Run<'_> {
         });
         for (item, result) in pending.into_iter().zip(results) {
             match (item, result) {
-                (Pending::Pair(job), Some(result)) => self.write(&job, result)?,
+                (Pending::Pair(job), Some(result)) => {
+                    let (result, chained) = self.chain(&job, result);
+                    self.write(&job, result, chained)?;
+                }
                 (Pending::Error(error), _) => self.report(&error),
                 (Pending::Pair(_), None) => unreachable!("every pair is estimated"),
             }
@@ -452,12 +491,43 @@ impl Run<'_> {
         Ok(())
     }
 
+    /// Adds an estimated pair to the chain, if the run has one: the pair is
+    /// estimated again with the motion prior when the chain wants it. The
+    /// result (that one, then) and what the chain made of it.
+    fn chain(
+        &mut self,
+        job: &PairJob,
+        result: PairResult,
+    ) -> (PairResult, Option<(ChainLine, Pose)>) {
+        let Some(chain) = &self.chain else {
+            return (result, None);
+        };
+        let prior = result
+            .as_ref()
+            .ok()
+            .and_then(|e| chain.prior_for(&e[0]));
+        let result = match prior {
+            Some(prior) => {
+                let (options, mode) = (self.options, self.mode);
+                let again = self.workers.map(std::slice::from_ref(job), |engine, _, job| {
+                    scans::estimate_with_prior(engine.as_mut(), &job.pair, &options, &[mode], Some(prior))
+                });
+                again.into_iter().next().unwrap_or(result)
+            }
+            None => result,
+        };
+        let chain = self.chain.as_mut().expect("checked above");
+        let added = chain.add(&job.b, result.as_ref().ok().map(|e| &e[0]), prior);
+        (result, Some(added))
+    }
+
     /// Writes one estimated pair's line, and adds it to the trajectory and
     /// the summary.
     fn write(
         &mut self,
         job: &PairJob,
-        result: Result<Vec<scans::PairEstimate>, String>,
+        result: PairResult,
+        chained: Option<(ChainLine, Pose)>,
     ) -> Result<(), Fatal> {
         let PairJob {
             a,
@@ -479,7 +549,10 @@ impl Run<'_> {
             }
         };
         if let Some(t) = &mut self.trajectory {
-            t.add(a, b, result.as_ref().ok().map(|e| &e[0]), *odom);
+            match &chained {
+                Some((line, pose)) => t.add_chained(b, *pose, line.source),
+                None => t.add(a, b, result.as_ref().ok().map(|e| &e[0]), *odom),
+            }
         }
         if self.args.summary {
             match (&result, log_pose) {
@@ -508,6 +581,7 @@ impl Run<'_> {
             t2: s2.time,
             odom: odom.as_ref().map(Delta::of),
             log_pose: log_pose.as_ref().map(Delta::of),
+            chain: chained.map(|(line, _)| line),
         })
         .map_err(|e| Fatal::io(format!("JSON output: {e}")))?;
         if !self.stdout_closed && writeln!(self.out, "{text}").is_err() {
@@ -735,11 +809,18 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
     if args.window == 0 {
         return Err(Fatal::usage("--window 0: must be at least 1"));
     }
-    if !(args.prior_sigma.is_finite() && args.prior_sigma > 0.0 && args.prior_sigma <= 90.0) {
+    let sigma = args.prior_sigma();
+    if !(sigma.is_finite() && sigma > 0.0 && sigma <= 90.0) {
         return Err(Fatal::usage(format!(
-            "--prior-sigma {}: must be in (0, 90] degrees",
-            args.prior_sigma
+            "--prior-sigma {sigma}: must be in (0, 90] degrees"
         )));
+    }
+    if args.prior == PriorArg::Motion
+        && !matches!(args.pairs(), PairsArg::Consecutive | PairsArg::Keyframes)
+    {
+        return Err(Fatal::usage(
+            "--prior motion chains the scans: use it with --pairs consecutive or keyframes",
+        ));
     }
     if args.window_s.is_some_and(|w| !(w.is_finite() && w > 0.0)) {
         return Err(Fatal::usage(
@@ -761,9 +842,10 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
         }
         None => None,
     };
-    if (args.trajectory.is_some() || args.plot.is_some()) && args.pairs != PairsArg::Consecutive {
+    let chains = matches!(args.pairs(), PairsArg::Consecutive | PairsArg::Keyframes);
+    if (args.trajectory.is_some() || args.plot.is_some()) && !chains {
         return Err(Fatal::usage(
-            "--trajectory and --plot chain consecutive pairs: use them with --pairs consecutive",
+            "--trajectory and --plot chain the scans: use them with --pairs consecutive or keyframes",
         ));
     }
     let file = args.file.display().to_string();
@@ -796,8 +878,11 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
         // `--summary` on consecutive pairs also scores the chain (APE, RPE).
         trajectory: (args.trajectory.is_some()
             || args.plot.is_some()
-            || (args.summary && args.pairs == PairsArg::Consecutive))
+            || (args.summary && chains))
             .then(Trajectory::default),
+        chain: args
+            .chained()
+            .then(|| Chain::new(args.prior_sigma(), args.pairs() != PairsArg::Keyframes)),
         stdout_closed: false,
         bar: bar.clone(),
     };
@@ -860,11 +945,32 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
 }
 
 impl LogArgs {
+    /// The pairs asked for (`--keyframes` is `--pairs keyframes`).
+    pub fn pairs(&self) -> PairsArg {
+        if self.keyframes {
+            PairsArg::Keyframes
+        } else {
+            self.pairs
+        }
+    }
+
+    /// The prior's σ, degrees: `--prior-sigma`, or the prior's default.
+    pub fn prior_sigma(&self) -> f64 {
+        let default = if self.chained() { 30.0 } else { 10.0 };
+        self.prior_sigma.unwrap_or(default)
+    }
+
+    /// The run chains the scans (motion prior or keyframes).
+    fn chained(&self) -> bool {
+        self.prior == PriorArg::Motion || self.pairs() == PairsArg::Keyframes
+    }
+
     fn pairs_name(&self) -> &'static str {
-        match self.pairs {
+        match self.pairs() {
             PairsArg::Consecutive => "consecutive",
             PairsArg::Reference => "reference",
             PairsArg::Window => "window",
+            PairsArg::Keyframes => "keyframe",
         }
     }
 }
@@ -987,14 +1093,25 @@ fn stream_pairs(
         }
         let current: Kept = (index, Arc::new(scan));
         run.bar.set_message(format!("scan {index}"));
-        match args.pairs {
+        match args.pairs() {
             PairsArg::Consecutive => {
                 if let Some(previous) = kept.pop_back() {
                     run.pair(&previous, &current)?;
-                } else if let Some(t) = &mut run.trajectory {
-                    t.start(&current);
+                } else {
+                    run.start(&current);
                 }
                 kept.push_back(current);
+            }
+            PairsArg::Keyframes => {
+                // Each pair waits for the one before: its keyframe and
+                // prior come from that pair's estimate.
+                match run.chain.as_ref().and_then(|c| c.keyframe.clone()) {
+                    Some(keyframe) => {
+                        run.pair(&keyframe, &current)?;
+                        run.flush()?;
+                    }
+                    None => run.start(&current),
+                }
             }
             PairsArg::Reference => {
                 if index == args.reference {
@@ -1019,7 +1136,7 @@ fn stream_pairs(
             }
         }
     }
-    if args.pairs == PairsArg::Reference && reference.is_none() && scans > 0 {
+    if args.pairs() == PairsArg::Reference && reference.is_none() && scans > 0 {
         return Err(Fatal::usage(format!(
             "--reference {}: the recording has only {scans} scans",
             args.reference
