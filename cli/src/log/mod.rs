@@ -196,7 +196,7 @@ pub enum PairsArg {
     Window,
     /// Keyframe odometry: each scan against the current keyframe, a new
     /// keyframe when the overlap falls below 0.6 or an estimate is flagged;
-    /// with the motion prior (`--prior motion` is implied).
+    /// always with the motion prior.
     Keyframes,
 }
 
@@ -250,9 +250,10 @@ pub struct LogArgs {
     pub window_s: Option<f64>,
     /// `odom`: the odometry's rotation picks among the candidates (within
     /// 3 × `--prior-sigma`); `motion`: the chain's constant-velocity
-    /// prediction does (`--pairs keyframes` implies it).
-    #[arg(long, value_enum, default_value_t = PriorArg::None)]
-    pub prior: PriorArg,
+    /// prediction does. Default: `motion` for consecutive and keyframe
+    /// pairs (a robot's stream), `none` for the others.
+    #[arg(long, value_enum)]
+    pub prior: Option<PriorArg>,
     /// One standard deviation of the prior, degrees (default 10 for `odom`,
     /// 30 for `motion` and keyframes).
     #[arg(long, value_name = "DEGREES")]
@@ -436,7 +437,7 @@ impl Run<'_> {
         let (s1, s2) = (&a.1, &b.1);
         let odom = s1.odom.zip(s2.odom).map(|(p, q)| p.between(&q));
         let log_pose = s1.log_pose.zip(s2.log_pose).map(|(p, q)| p.between(&q));
-        let prior = match (self.args.prior, odom) {
+        let prior = match (self.args.prior(), odom) {
             (PriorArg::Odom, Some(d)) => Some(Prior {
                 alpha: Angle::from_degrees(-d.theta.to_degrees() as f32),
                 sigma: Angle::from_degrees(self.args.prior_sigma() as f32),
@@ -815,7 +816,7 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
             "--prior-sigma {sigma}: must be in (0, 90] degrees"
         )));
     }
-    if args.prior == PriorArg::Motion
+    if args.prior() == PriorArg::Motion
         && !matches!(args.pairs(), PairsArg::Consecutive | PairsArg::Keyframes)
     {
         return Err(Fatal::usage(
@@ -954,6 +955,17 @@ impl LogArgs {
         }
     }
 
+    /// The prior asked for, or the pairs' default (`motion` for a stream:
+    /// consecutive and keyframe pairs).
+    pub fn prior(&self) -> PriorArg {
+        match (self.prior, self.pairs()) {
+            (_, PairsArg::Keyframes) => PriorArg::Motion,
+            (Some(p), _) => p,
+            (None, PairsArg::Consecutive) => PriorArg::Motion,
+            (None, _) => PriorArg::None,
+        }
+    }
+
     /// The prior's σ, degrees: `--prior-sigma`, or the prior's default.
     pub fn prior_sigma(&self) -> f64 {
         let default = if self.chained() { 30.0 } else { 10.0 };
@@ -962,7 +974,7 @@ impl LogArgs {
 
     /// The run chains the scans (motion prior or keyframes).
     fn chained(&self) -> bool {
-        self.prior == PriorArg::Motion || self.pairs() == PairsArg::Keyframes
+        self.prior() == PriorArg::Motion
     }
 
     fn pairs_name(&self) -> &'static str {
