@@ -267,7 +267,8 @@ impl KeyframeOdometry {
     }
 
     /// Adds the next scan, whose `estimate` against the keyframe gave the
-    /// robot's `motion` (`None`: no estimate; `by_prior`: the estimate was
+    /// robot's `motion` (`None` or a non-finite motion: no estimate;
+    /// `by_prior`: the estimate was
     /// made with [`prior`](Self::prior)). Returns its pose and whether it
     /// is the next keyframe. The first scan must come through
     /// [`start`](Self::start); an update before it starts the chain.
@@ -276,6 +277,13 @@ impl KeyframeOdometry {
             return self.start();
         }
         let prior = self.prior();
+        // A non-finite motion is no estimate.
+        let finite = |m: &Motion| {
+            m.dtheta.is_finite()
+                && m.translation
+                    .is_none_or(|(x, y)| x.is_finite() && y.is_finite())
+        };
+        let estimate = estimate.filter(|(_, m)| finite(m));
         let (relative, source) = match estimate {
             Some((e, m)) => {
                 let confident = e.status == Status::Confident;
@@ -328,4 +336,144 @@ fn within_gate(alpha: Angle, prior: &Prior) -> bool {
 /// `alpha` lies within `k`σ of the prior's α.
 fn within(alpha: Angle, prior: &Prior, k: u32) -> bool {
     alpha.distance(prior.alpha) <= Angle(prior.sigma.0.saturating_mul(k))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An estimate of a robot turn of `dtheta_deg` (α = −dθ) with `status`
+    /// and `overlap`, and its motion (1 m forward).
+    fn step(dtheta_deg: f32, status: Status, overlap: f32) -> (Estimate, Motion) {
+        let mut e = Estimate::no_structure();
+        e.alpha = Angle::from_degrees(-dtheta_deg);
+        e.status = status;
+        e.overlap = Score::from_num(overlap);
+        let m = Motion {
+            dtheta: dtheta_deg.to_radians(),
+            translation: Some((1.0, 0.0)),
+        };
+        (e, m)
+    }
+
+    fn degrees(a: Angle) -> f32 {
+        a.to_degrees()
+    }
+
+    #[test]
+    fn compose_and_between_match_f64() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..500 {
+            let (ax, ay, at) = (next() * 20.0 - 10.0, next() * 20.0 - 10.0, next() * 6.28 - 3.14);
+            let (bx, by, bt) = (next() * 4.0 - 2.0, next() * 4.0 - 2.0, next() * 6.28 - 3.14);
+            let pose = |x: f64, y: f64, t: f64| RobotPose {
+                x: x as f32,
+                y: y as f32,
+                heading: Angle::from_degrees(t.to_degrees() as f32),
+            };
+            let (a, b) = (pose(ax, ay, at), pose(bx, by, bt));
+            let c = a.compose(&b);
+            // f64 reference: a ∘ b.
+            let (s, co) = at.sin_cos();
+            let (cx, cy) = (ax + co * bx - s * by, ay + s * bx + co * by);
+            assert!((f64::from(c.x) - cx).abs() < 2e-4, "x {} vs {cx}", c.x);
+            assert!((f64::from(c.y) - cy).abs() < 2e-4, "y {} vs {cy}", c.y);
+            let dt = (f64::from(c.heading.to_degrees()) - (at + bt).to_degrees() + 540.0)
+                .rem_euclid(360.0)
+                - 180.0;
+            assert!(dt.abs() < 1e-3, "heading off by {dt}°");
+            // between undoes compose.
+            let back = a.between(&c);
+            assert!((back.x - b.x).abs() < 2e-4 && (back.y - b.y).abs() < 2e-4);
+            assert!(back.heading.distance(b.heading) < Angle::from_degrees(1e-3));
+        }
+    }
+
+    #[test]
+    fn the_prior_repeats_the_last_step() {
+        let mut chain = KeyframeOdometry::new(KeyframeSettings::default());
+        assert_eq!(chain.start().source, StepSource::Start);
+        assert_eq!(chain.prior(), None, "nothing to predict from yet");
+        let (e, m) = step(20.0, Status::Confident, 0.9);
+        let s = chain.update(Some((&e, &m)), false);
+        assert_eq!(s.source, StepSource::Estimate);
+        assert!(!s.new_keyframe, "overlap 0.9 keeps the keyframe");
+        // The keyframe is still the first scan: two steps of 20° predicted.
+        let prior = chain.prior().unwrap();
+        assert!((degrees(prior.alpha) + 40.0).abs() < 0.01, "{}", degrees(prior.alpha));
+        assert_eq!(prior.sigma, KeyframeSettings::default().prior_sigma);
+    }
+
+    #[test]
+    fn a_flagged_half_turn_is_not_taken() {
+        let mut chain = KeyframeOdometry::new(KeyframeSettings {
+            min_overlap: Score::MAX, // every scan a keyframe: consecutive pairs
+            ..KeyframeSettings::default()
+        });
+        chain.start();
+        let (e, m) = step(10.0, Status::Confident, 0.9);
+        chain.update(Some((&e, &m)), false);
+        // The next pair is flagged and its answer is the half turn of the
+        // truth (~10°): beyond 3σ = 90° of the prediction (10°).
+        let (e, m) = step(-170.0, Status::AmbiguousDirection, 0.8);
+        assert!(chain.wants_prior(&e));
+        let s = chain.update(Some((&e, &m)), true);
+        assert_eq!(s.source, StepSource::Predicted);
+        assert!((degrees(s.pose.heading) - 20.0).abs() < 0.01);
+        assert!(s.new_keyframe);
+        // A flagged answer within 3σ is taken, marked.
+        let (e, m) = step(40.0, Status::AmbiguousDirection, 0.8);
+        let s = chain.update(Some((&e, &m)), true);
+        assert_eq!(s.source, StepSource::Prior);
+        assert!((degrees(s.pose.heading) - 60.0).abs() < 0.01);
+    }
+
+    #[test]
+    fn a_weak_match_is_taken_only_near_the_prediction() {
+        let mut chain = KeyframeOdometry::new(KeyframeSettings::default());
+        chain.start();
+        let (e, m) = step(0.0, Status::Confident, 0.5);
+        assert!(chain.update(Some((&e, &m)), false).new_keyframe, "overlap 0.5 < 0.6");
+        // Low overlap 45° from the prediction (0°): beyond 1σ = 30°.
+        let (e, m) = step(45.0, Status::LowOverlap, 0.2);
+        assert_eq!(chain.update(Some((&e, &m)), true).source, StepSource::Predicted);
+        let (e, m) = step(20.0, Status::LowOverlap, 0.2);
+        assert_eq!(chain.update(Some((&e, &m)), true).source, StepSource::Prior);
+    }
+
+    #[test]
+    fn a_confident_answer_stands_without_a_prior_and_the_chain_never_breaks() {
+        let mut chain = KeyframeOdometry::new(KeyframeSettings::default());
+        // An update before start starts the chain.
+        assert_eq!(chain.update(None, false).source, StepSource::Start);
+        // A flagged second scan: nothing to predict from, taken as it is.
+        let (e, m) = step(-30.0, Status::AmbiguousAxis, 0.7);
+        assert!(!chain.wants_prior(&e));
+        assert_eq!(chain.update(Some((&e, &m)), false).source, StepSource::Flagged);
+        // No estimate at all: the prediction.
+        let s = chain.update(None, false);
+        assert_eq!(s.source, StepSource::Predicted);
+        assert!((degrees(s.pose.heading) + 60.0).abs() < 0.01);
+        // A confident answer far from the prediction stands.
+        let (e, m) = step(80.0, Status::Confident, 0.9);
+        assert!(chain.wants_prior(&e), "80° is 110° from the predicted −30°");
+        let s = chain.update(Some((&e, &m)), false);
+        assert_eq!(s.source, StepSource::Estimate);
+        assert!((degrees(s.pose.heading) - 20.0).abs() < 0.01);
+        // Non-finite motions give finite poses.
+        let bad = Motion {
+            dtheta: f32::NAN,
+            translation: Some((f32::INFINITY, 0.0)),
+        };
+        let (e, _) = step(0.0, Status::Confident, 0.9);
+        let s = chain.update(Some((&e, &bad)), false);
+        assert_eq!(s.source, StepSource::Predicted);
+        assert!(s.pose.x.is_finite() && s.pose.y.is_finite());
+    }
 }

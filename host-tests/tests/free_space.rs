@@ -6,7 +6,8 @@ use std::collections::HashSet;
 
 use host_tests::raycast::{Laser, Wall};
 use hough_heading::{
-    estimator, grid, stages::FREE_MARGIN_CELLS, stages::FREE_MARGIN_SHIFT, Angle, Estimate,
+    estimator, grid, stages::BEAM_MAX_MISSING, stages::FREE_MARGIN_CELLS, stages::FREE_MARGIN_SHIFT,
+    Angle, Estimate,
     FreeSpace, Mode, Raster, Scan, SensorOffset, Status,
 };
 use proptest::prelude::*;
@@ -20,8 +21,8 @@ type E128 = estimator!(128, 128, 360);
 /// The cells (col, row) a 64² grid's free space should hold, in `f64` from
 /// the definition: each beam with a return (finite, positive, below
 /// `max_range`) is followed from the sensor to `FREE_MARGIN_CELLS + L/32`
-/// cells short of `L`, the shortest return among itself and its valid
-/// neighbours; a point `(x, y)` (cells, centred, y up) is in the cell
+/// cells short of `L`, the shortest return among itself and its
+/// neighbouring returns (over at most `BEAM_MAX_MISSING` beams without one); a point `(x, y)` (cells, centred, y up) is in the cell
 /// `(⌊x + 32⌋, ⌊32 − y⌋)`. Points every 1/16 cell.
 fn free_reference(scan: &Scan<'_>, cell: f64) -> HashSet<(i64, i64)> {
     let o = scan.offset;
@@ -38,18 +39,32 @@ fn free_reference(scan: &Scan<'_>, cell: f64) -> HashSet<(i64, i64)> {
         let r = f64::from(r) / cell;
         Some((phi.cos(), phi.sin(), r))
     };
+    // The neighbouring returns: the nearest valid beam on each side with at
+    // most BEAM_MAX_MISSING beams without a return between, and no return
+    // beyond every grid (2¹⁴ cells: `BeamEnd::Far`) between.
+    let gap = BEAM_MAX_MISSING as usize;
+    let far = |i: usize| {
+        scan.ranges
+            .get(i)
+            .is_some_and(|&r| valid(r) && f64::from(r) / cell >= 16_384.0)
+    };
+    let neighbour = |i: usize, step: isize| {
+        (1..=gap + 1).find_map(|k| {
+            let j = i.checked_add_signed(step * k as isize)?;
+            if far(j) {
+                return Some(None);
+            }
+            beam(j).map(Some)
+        })?
+    };
     let mut cells = HashSet::new();
     for i in 0..scan.ranges.len() {
         let Some((c, s, r)) = beam(i) else { continue };
-        let reach = [
-            i.checked_sub(1).and_then(beam),
-            Some((c, s, r)),
-            beam(i + 1),
-        ]
-        .into_iter()
-        .flatten()
-        .map(|b| b.2)
-        .fold(r, f64::min);
+        let reach = [neighbour(i, -1), Some((c, s, r)), neighbour(i, 1)]
+            .into_iter()
+            .flatten()
+            .map(|b| b.2)
+            .fold(r, f64::min);
         let free =
             reach - f64::from(FREE_MARGIN_CELLS) - reach / f64::from(1u32 << FREE_MARGIN_SHIFT);
         let mut t = 0.0;

@@ -126,7 +126,10 @@ pub struct BeamAgreement {
     pub seen_through: Score,
     /// Share of the end points whose bearing from the other sensor lies
     /// within its field of view, in [0, 1] (the mean of both directions):
-    /// only these can be explained or seen through.
+    /// a return of that sensor lies within
+    /// [`BEAM_MAX_MISSING`](super::BEAM_MAX_MISSING) beams of the bearing,
+    /// so a full circle of bins with returns over half of it sees half of
+    /// it. Only these can be explained or seen through.
     pub in_view: Score,
 }
 
@@ -619,12 +622,18 @@ fn one_way(
         let Some(beam) = into.beam_of(p) else {
             return;
         };
+        // In view: a return of the other sensor near its bearing (a full
+        // circle of bins without returns behind a 180° sensor sees nothing).
+        let ends = into.ends_around(beam);
+        if ends.iter().all(Option::is_none) {
+            return;
+        }
         in_view += 1;
-        if let Some((r, _)) = into.nearest_around(p, beam) {
+        if let Some((r, _)) = into.nearest_among(p, &ends) {
             let r = r.abs().min(tau);
             explained += i128::from(tau_sq - r * r);
         }
-        seen += i64::from(into.seen_through(p, beam, margin));
+        seen += i64::from(into.seen_through(p, &ends, margin));
     });
     // The mean of 1 − (r/τ)², Q16: at most 2¹⁶.
     let explained = (explained << 16)
@@ -634,12 +643,12 @@ fn one_way(
 }
 
 impl Segments<'_> {
-    /// `p` (Q16 cells, around `beam`: [`Segments::beam_of`]) lies nearer to
-    /// the sensor than each of the four returns around its bearing
-    /// ([`Segments::ends_around`]) measured, by more than `margin` (Q16
+    /// `p` (Q16 cells) lies nearer to the sensor than each of the four
+    /// returns around its bearing (`ends`: [`Segments::ends_around`])
+    /// measured, by more than `margin` (Q16
     /// cells, at least 32) plus 1/32 of that range; false where fewer than
     /// four near returns are around.
-    fn seen_through(&mut self, p: (i64, i64), beam: i64, margin: i64) -> bool {
+    fn seen_through(&self, p: (i64, i64), ends: &[Option<(i32, i32)>; 4], margin: i64) -> bool {
         let (dx, dy) = (
             p.0 - i64::from(self.origin.0),
             p.1 - i64::from(self.origin.1),
@@ -650,7 +659,7 @@ impl Segments<'_> {
         }
         // The nearest of the four ranges, squared.
         let mut nearest_sq = u64::MAX;
-        for end in self.ends_around(beam) {
+        for end in ends {
             let Some(e) = end else {
                 return false;
             };

@@ -277,9 +277,19 @@ impl Segments<'_> {
     /// ([`beam_of`](Self::beam_of)). The choice needs no root or division;
     /// the chosen segment's normal takes one of each.
     pub(super) fn nearest_around(&mut self, p: (i64, i64), beam: i64) -> Option<(i64, (i64, i64))> {
+        let ends = self.ends_around(beam);
+        self.nearest_among(p, &ends)
+    }
+
+    /// [`nearest`](Self::nearest) given the returns around `p`'s bearing
+    /// ([`ends_around`](Self::ends_around)).
+    pub(super) fn nearest_among(
+        &self,
+        p: (i64, i64),
+        ends: &[Option<(i32, i32)>; 4],
+    ) -> Option<(i64, (i64, i64))> {
         // (squared distance to the midpoint, start, direction)
         let mut best: Option<(u32, Point, Point)> = None;
-        let ends = self.ends_around(beam);
         for pair in ends.windows(2) {
             let (Some(a), Some(b)) = (pair[0], pair[1]) else {
                 continue;
