@@ -307,10 +307,7 @@ impl KeyframeOdometry {
                     _ => (RobotPose::of_motion(m), source),
                 }
             }
-            None => (
-                self.predicted().unwrap_or_default(),
-                StepSource::Predicted,
-            ),
+            None => (self.predicted().unwrap_or_default(), StepSource::Predicted),
         };
         let pose = self.keyframe.compose(&relative);
         self.velocity = Some(self.pose.between(&pose));
@@ -370,7 +367,11 @@ mod tests {
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
         for _ in 0..500 {
-            let (ax, ay, at) = (next() * 20.0 - 10.0, next() * 20.0 - 10.0, next() * 6.28 - 3.14);
+            let (ax, ay, at) = (
+                next() * 20.0 - 10.0,
+                next() * 20.0 - 10.0,
+                next() * 6.28 - 3.14,
+            );
             let (bx, by, bt) = (next() * 4.0 - 2.0, next() * 4.0 - 2.0, next() * 6.28 - 3.14);
             let pose = |x: f64, y: f64, t: f64| RobotPose {
                 x: x as f32,
@@ -406,7 +407,11 @@ mod tests {
         assert!(!s.new_keyframe, "overlap 0.9 keeps the keyframe");
         // The keyframe is still the first scan: two steps of 20° predicted.
         let prior = chain.prior().unwrap();
-        assert!((degrees(prior.alpha) + 40.0).abs() < 0.01, "{}", degrees(prior.alpha));
+        assert!(
+            (degrees(prior.alpha) + 40.0).abs() < 0.01,
+            "{}",
+            degrees(prior.alpha)
+        );
         assert_eq!(prior.sigma, KeyframeSettings::default().prior_sigma);
     }
 
@@ -439,10 +444,16 @@ mod tests {
         let mut chain = KeyframeOdometry::new(KeyframeSettings::default());
         chain.start();
         let (e, m) = step(0.0, Status::Confident, 0.5);
-        assert!(chain.update(Some((&e, &m)), false).new_keyframe, "overlap 0.5 < 0.6");
+        assert!(
+            chain.update(Some((&e, &m)), false).new_keyframe,
+            "overlap 0.5 < 0.6"
+        );
         // Low overlap 45° from the prediction (0°): beyond 1σ = 30°.
         let (e, m) = step(45.0, Status::LowOverlap, 0.2);
-        assert_eq!(chain.update(Some((&e, &m)), true).source, StepSource::Predicted);
+        assert_eq!(
+            chain.update(Some((&e, &m)), true).source,
+            StepSource::Predicted
+        );
         let (e, m) = step(20.0, Status::LowOverlap, 0.2);
         assert_eq!(chain.update(Some((&e, &m)), true).source, StepSource::Prior);
     }
@@ -455,7 +466,10 @@ mod tests {
         // A flagged second scan: nothing to predict from, taken as it is.
         let (e, m) = step(-30.0, Status::AmbiguousAxis, 0.7);
         assert!(!chain.wants_prior(&e));
-        assert_eq!(chain.update(Some((&e, &m)), false).source, StepSource::Flagged);
+        assert_eq!(
+            chain.update(Some((&e, &m)), false).source,
+            StepSource::Flagged
+        );
         // No estimate at all: the prediction.
         let s = chain.update(None, false);
         assert_eq!(s.source, StepSource::Predicted);

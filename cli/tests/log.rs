@@ -63,9 +63,10 @@ fn pair_lines(name: &str) -> Vec<Value> {
         .collect()
 }
 
-/// `log` on `args` equals `scans` on `pairs`, pair by pair.
+/// `log` on `args` equals `scans` on `pairs`, pair by pair (the pairs
+/// alone: `--prior none`, no chain).
 fn assert_same_as_scans(log_args: &[&str], pairs: &str) -> Vec<Value> {
-    let log = tool(log_args);
+    let log = tool(&[log_args, &["--prior", "none"]].concat());
     assert_eq!(log.status.code(), Some(0), "{}", stderr(&log));
     let scans = tool(&["scans", "-q", &data(pairs)]);
     assert_eq!(scans.status.code(), Some(0), "{}", stderr(&scans));
@@ -596,7 +597,7 @@ fn robotlaser1_lines_give_the_pair_files_estimate() {
     }
     let path = scratch("robotlaser1.log");
     std::fs::write(&path, log).expect("write");
-    let from_log = tool(&["log", "-q", &path.display().to_string()]);
+    let from_log = tool(&["log", "-q", "--prior", "none", &path.display().to_string()]);
     assert_eq!(from_log.status.code(), Some(0), "{}", stderr(&from_log));
     let line_file = scratch("robotlaser1.pairs.jsonl");
     std::fs::write(&line_file, format!("{first}\n")).expect("write");
@@ -865,6 +866,8 @@ fn ros2_bag_directories_read_their_files_in_order() {
         &split.display().to_string(),
         "--topic",
         "/scan",
+        "--prior",
+        "none",
     ]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     let e = stderr(&o);
@@ -882,6 +885,8 @@ fn ros2_bag_directories_read_their_files_in_order() {
         &data("seattle-bag.mcap"),
         "--topic",
         "/scan",
+        "--prior",
+        "none",
     ]));
     let f = |v: &Value| estimate_fields(v);
     assert!(lines[2..].iter().map(f).eq(alone.iter().map(f)));

@@ -6,9 +6,9 @@ use std::collections::HashSet;
 
 use host_tests::raycast::{Laser, Wall};
 use hough_heading::{
-    estimator, grid, stages::BEAM_MAX_MISSING, stages::FREE_MARGIN_CELLS, stages::FREE_MARGIN_SHIFT,
-    Angle, Estimate,
-    FreeSpace, Mode, Raster, Scan, SensorOffset, Status,
+    estimator, grid, stages::BEAM_MAX_MISSING, stages::FREE_MARGIN_CELLS,
+    stages::FREE_MARGIN_SHIFT, Angle, Estimate, FreeSpace, Mode, Raster, Scan, SensorOffset,
+    Status,
 };
 use proptest::prelude::*;
 

@@ -126,10 +126,9 @@ pub struct BeamAgreement {
     pub seen_through: Score,
     /// Share of the end points whose bearing from the other sensor lies
     /// within its field of view, in [0, 1] (the mean of both directions):
-    /// a return of that sensor lies within
-    /// [`BEAM_MAX_MISSING`](super::BEAM_MAX_MISSING) beams of the bearing,
-    /// so a full circle of bins with returns over half of it sees half of
-    /// it. Only these can be explained or seen through.
+    /// one of the two beams of that sensor the bearing lies between has a
+    /// return, so a full circle of bins with returns over half of it sees
+    /// half of it. Only these can be explained or seen through.
     pub in_view: Score,
 }
 
@@ -526,6 +525,31 @@ const VOTE_PEAKS: usize = 3;
 /// [`VOTE_PEAKS`] strongest bins (each clearing its 3 × 3 neighbourhood)
 /// are returned, strongest first. Starts for the refinement that do not
 /// depend on the grid search's small sample.
+/// Calls `f` with (Q16 cells) at most [`VOTE_POINTS`] of the scan's near
+/// end points, spread evenly over them (not over the beams: a full circle
+/// of bins with returns over half of it keeps as many points), and placed
+/// alike from either end, so that a scan written in reverse order (a
+/// clockwise sensor) gives the same sample: every `stride`-th return from
+/// the middle of the leftover. Two passes over the beams.
+fn for_each_sampled_end(beams: &ScanBeams, ranges: &[f32], mut f: impl FnMut(i64, i64)) {
+    let near = |(i, &range): (usize, &f32)| match beams.end(i, range) {
+        BeamEnd::Near { x, y } => Some((i64::from(x), i64::from(y))),
+        _ => None,
+    };
+    let count = ranges.iter().enumerate().filter_map(near).count();
+    let stride = count.div_ceil(VOTE_POINTS).max(1);
+    let first = (count.saturating_sub(1) % stride) / 2;
+    for (x, y) in ranges
+        .iter()
+        .enumerate()
+        .filter_map(near)
+        .skip(first)
+        .step_by(stride)
+    {
+        f(x, y);
+    }
+}
+
 fn voted_translations(
     raster: &Raster,
     reference: &Scan<'_>,
@@ -540,25 +564,17 @@ fn voted_translations(
     let in_bins = |v: i64| (v << 8).div_euclid(bin);
     let mut turned: Vec<(i64, i64), VOTE_POINTS> = Vec::new();
     let cur = ScanBeams::new(current, raster);
-    let stride = current.ranges.len().div_ceil(VOTE_POINTS).max(1);
-    for (i, &range) in current.ranges.iter().enumerate().step_by(stride) {
-        if let BeamEnd::Near { x, y } = cur.end(i, range) {
-            let (x, y) = (i64::from(x), i64::from(y));
-            let _ = turned.push((
-                in_bins((c * x - s * y) >> 16),
-                in_bins((s * x + c * y) >> 16),
-            ));
-        }
-    }
+    for_each_sampled_end(&cur, current.ranges, |x, y| {
+        let _ = turned.push((
+            in_bins((c * x - s * y) >> 16),
+            in_bins((s * x + c * y) >> 16),
+        ));
+    });
     let half = (VOTE_BINS / 2) as i64;
     let mut votes = [[0u8; VOTE_BINS]; VOTE_BINS];
     let refs = ScanBeams::new(reference, raster);
-    let stride = reference.ranges.len().div_ceil(VOTE_POINTS).max(1);
-    for (i, &range) in reference.ranges.iter().enumerate().step_by(stride) {
-        let BeamEnd::Near { x, y } = refs.end(i, range) else {
-            continue;
-        };
-        let (x, y) = (in_bins(i64::from(x)), in_bins(i64::from(y)));
+    for_each_sampled_end(&refs, reference.ranges, |x, y| {
+        let (x, y) = (in_bins(x), in_bins(y));
         for &(qx, qy) in &turned {
             let d = |p: i64, q: i64| ((p - q + 128) >> 8) + half;
             let (bx, by) = (d(x, qx), d(y, qy));
@@ -571,7 +587,7 @@ fn voted_translations(
                 *v = v.saturating_add(1);
             }
         }
-    }
+    });
     while !peaks.is_full() {
         let mut best = (0u8, 0usize, 0usize);
         for (by, row) in votes.iter().enumerate() {
@@ -622,13 +638,14 @@ fn one_way(
         let Some(beam) = into.beam_of(p) else {
             return;
         };
-        // In view: a return of the other sensor near its bearing (a full
-        // circle of bins without returns behind a 180° sensor sees nothing).
-        let ends = into.ends_around(beam);
-        if ends.iter().all(Option::is_none) {
+        // In view: one of the two beams its bearing lies between has a
+        // return (a full circle of bins without returns behind a 180°
+        // sensor sees nothing there; the same two beams in either order).
+        if into.end(beam).is_none() && into.end(beam + 1).is_none() {
             return;
         }
         in_view += 1;
+        let ends = into.ends_around(beam);
         if let Some((r, _)) = into.nearest_among(p, &ends) {
             let r = r.abs().min(tau);
             explained += i128::from(tau_sq - r * r);

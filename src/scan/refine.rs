@@ -232,9 +232,10 @@ impl Segments<'_> {
     }
 
     /// The beam whose direction is at or just before `bearing` (2³² = one
-    /// turn), give or take one, −1 just before beam 0; `None` outside the
-    /// field of view. One multiplication by the step's reciprocal (exact
-    /// division for steps below 2⁻¹⁶ turn).
+    /// turn; the bearing's lower bits taken as zero), −1 just before beam
+    /// 0; `None` outside the field of view. One multiplication by the
+    /// step's reciprocal and one check (exact division for steps below
+    /// 2⁻¹⁶ turn).
     pub(super) fn beam_before(&self, bearing: u32) -> Option<i64> {
         let bearing = u64::from(bearing) << 32;
         let rel = if self.counter_clockwise {
@@ -243,7 +244,20 @@ impl Segments<'_> {
             self.start.wrapping_sub(bearing)
         };
         let beam = match self.inverse_step {
-            Some(inverse) => ((rel >> 32) * inverse) >> 48,
+            Some(inverse) => {
+                // Within one beam of ⌊rel / step⌋; made exact with one
+                // product, so that a clockwise scan (its beams in the
+                // other order) picks the same beams around a bearing.
+                let beam = ((rel >> 32) * inverse) >> 48;
+                let below = |k: u64| u128::from(k) * u128::from(self.step) <= u128::from(rel);
+                if !below(beam) {
+                    beam.saturating_sub(1)
+                } else if below(beam + 1) {
+                    beam + 1
+                } else {
+                    beam
+                }
+            }
             None => rel.checked_div(self.step)?,
         };
         if beam <= self.ranges.len() as u64 {

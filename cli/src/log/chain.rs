@@ -11,6 +11,7 @@ use hough_heading::odometry::{KeyframeOdometry, KeyframeSettings, StepSource};
 use hough_heading::{Angle, Motion, Prior, Score};
 use serde::Serialize;
 
+use super::trajectory::fused_delta;
 use super::{Kept, Pose};
 use crate::scans::PairEstimate;
 
@@ -86,17 +87,20 @@ impl Chain {
     }
 
     /// Adds `scan` with its estimate against the keyframe (`None`: it
-    /// failed), made with `prior` if given; the line to report and the
-    /// scan's pose.
+    /// failed), made with `prior` if given, and the odometry's motion from
+    /// the keyframe; the line to report and the scan's pose.
     pub fn add(
         &mut self,
         scan: &Kept,
         estimate: Option<&PairEstimate>,
         prior: Option<Prior>,
+        odom: Option<Pose>,
     ) -> (ChainLine, Pose) {
+        // Along a corridor the odometry's translation (as the trajectory of
+        // the pairs alone takes it).
         let motion = estimate.map(|e| Motion {
             dtheta: e.dtheta_deg.to_radians() as f32,
-            translation: e.translation.map(|(x, y)| (x as f32, y as f32)),
+            translation: fused_delta(e, odom).map(|(d, _)| (d.x as f32, d.y as f32)),
         });
         let step = self.odometry.update(
             estimate.zip(motion.as_ref()).map(|(e, m)| (&e.estimate, m)),

@@ -503,22 +503,27 @@ impl Run<'_> {
         let Some(chain) = &self.chain else {
             return (result, None);
         };
-        let prior = result
-            .as_ref()
-            .ok()
-            .and_then(|e| chain.prior_for(&e[0]));
+        let prior = result.as_ref().ok().and_then(|e| chain.prior_for(&e[0]));
         let result = match prior {
             Some(prior) => {
                 let (options, mode) = (self.options, self.mode);
-                let again = self.workers.map(std::slice::from_ref(job), |engine, _, job| {
-                    scans::estimate_with_prior(engine.as_mut(), &job.pair, &options, &[mode], Some(prior))
-                });
+                let again = self
+                    .workers
+                    .map(std::slice::from_ref(job), |engine, _, job| {
+                        scans::estimate_with_prior(
+                            engine.as_mut(),
+                            &job.pair,
+                            &options,
+                            &[mode],
+                            Some(prior),
+                        )
+                    });
                 again.into_iter().next().unwrap_or(result)
             }
             None => result,
         };
         let chain = self.chain.as_mut().expect("checked above");
-        let added = chain.add(&job.b, result.as_ref().ok().map(|e| &e[0]), prior);
+        let added = chain.add(&job.b, result.as_ref().ok().map(|e| &e[0]), prior, job.odom);
         (result, Some(added))
     }
 
@@ -877,9 +882,7 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
         failed: 0,
         summary: Summary::default(),
         // `--summary` on consecutive pairs also scores the chain (APE, RPE).
-        trajectory: (args.trajectory.is_some()
-            || args.plot.is_some()
-            || (args.summary && chains))
+        trajectory: (args.trajectory.is_some() || args.plot.is_some() || (args.summary && chains))
             .then(Trajectory::default),
         chain: args
             .chained()

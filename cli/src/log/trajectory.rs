@@ -54,6 +54,40 @@ pub struct Trajectory {
     seen_points: usize,
 }
 
+/// The robot's motion an estimate gives (`None` without a translation):
+/// with odometry and a direction the estimate cannot observe (a corridor),
+/// the estimate across it and the odometry along it
+/// (`estimate+odometry`), else the estimate's (`estimate`).
+pub fn fused_delta(estimate: &PairEstimate, odom: Option<Pose>) -> Option<(Pose, &'static str)> {
+    let e = estimate;
+    let (x, y) = e.translation?;
+    let d = Pose {
+        x,
+        y,
+        theta: e.dtheta_deg.to_radians(),
+    };
+    // The direction along which the translation is not observable, in the
+    // frame of scan 1 (as `OutputLine::of` turns it).
+    let unobservable = e.estimate.translation.and_then(|t| {
+        let (ux, uy) = t.unobservable?;
+        let (ux, uy) = (ux.to_num::<f64>(), uy.to_num::<f64>());
+        let (s, c) = d.theta.sin_cos();
+        Some((c * ux - s * uy, s * ux + c * uy))
+    });
+    Some(match (odom, unobservable) {
+        (Some(o), Some((ux, uy))) => {
+            let along = (o.x - d.x) * ux + (o.y - d.y) * uy;
+            let fused = Pose {
+                x: d.x + along * ux,
+                y: d.y + along * uy,
+                theta: d.theta,
+            };
+            (fused, "estimate+odometry")
+        }
+        _ => (d, "estimate"),
+    })
+}
+
 impl Trajectory {
     /// Starts the chain at `first`.
     pub fn start(&mut self, first: &Kept) {
@@ -101,37 +135,13 @@ impl Trajectory {
             self.start(a);
         }
         let last = self.steps.last().map_or(Pose::ZERO, |s| s.pose);
-        let from_estimate = estimate.and_then(|e| {
-            e.translation.map(|(x, y)| Pose {
-                x,
-                y,
-                theta: e.dtheta_deg.to_radians(),
-            })
-        });
         let confident = estimate.is_some_and(|e| e.estimate.status == Status::Confident);
-        // The direction along which the translation is not observable (a
-        // corridor), in the frame of scan 1 (as `OutputLine::of` turns it).
-        let unobservable = estimate.and_then(|e| {
-            let (ux, uy) = e.estimate.translation?.unobservable?;
-            let (ux, uy) = (ux.to_num::<f64>(), uy.to_num::<f64>());
-            let (s, c) = e.dtheta_deg.to_radians().sin_cos();
-            Some((c * ux - s * uy, s * ux + c * uy))
-        });
-        let (delta, source) = match (from_estimate, odom, unobservable) {
-            (Some(d), Some(o), Some((ux, uy))) if confident => {
-                // The estimate across the corridor, the odometry along it.
-                let along = (o.x - d.x) * ux + (o.y - d.y) * uy;
-                let fused = Pose {
-                    x: d.x + along * ux,
-                    y: d.y + along * uy,
-                    theta: d.theta,
-                };
-                (fused, "estimate+odometry")
-            }
-            (Some(d), _, _) if confident => (d, "estimate"),
-            (_, Some(o), _) => (o, "odometry"),
-            (Some(d), None, _) => (d, "flagged"),
-            (None, None, _) => (Pose::ZERO, "none"),
+        let fused = estimate.and_then(|e| fused_delta(e, odom));
+        let (delta, source) = match (fused, odom) {
+            (Some(d), _) if confident => d,
+            (_, Some(o)) => (o, "odometry"),
+            (Some((d, _)), None) => (d, "flagged"),
+            (None, None) => (Pose::ZERO, "none"),
         };
         self.push(b, last.compose(&delta), source);
     }
