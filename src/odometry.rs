@@ -444,21 +444,15 @@ mod tests {
     }
 
     #[test]
-    fn a_weak_match_is_taken_only_near_the_prediction() {
+    fn a_low_overlap_answer_beyond_the_gate_gives_way_to_the_prediction() {
         let mut chain = KeyframeOdometry::new(KeyframeSettings::default());
         chain.start();
         let (e, m) = step(0.0, Status::Confident, 0.5);
-        assert!(
-            chain.update(Some((&e, &m)), false).new_keyframe,
-            "overlap 0.5 < 0.6"
-        );
-        // Low overlap 45° from the prediction (0°): beyond 1σ = 30°.
+        assert!(chain.update(Some((&e, &m)), false).new_keyframe, "overlap 0.5 < 0.6");
+        // Low overlap 100° from the prediction (0°): beyond 3σ = 90°.
+        let (e, m) = step(100.0, Status::LowOverlap, 0.2);
+        assert_eq!(chain.update(Some((&e, &m)), true).source, StepSource::Predicted);
         let (e, m) = step(45.0, Status::LowOverlap, 0.2);
-        assert_eq!(
-            chain.update(Some((&e, &m)), true).source,
-            StepSource::Predicted
-        );
-        let (e, m) = step(20.0, Status::LowOverlap, 0.2);
         assert_eq!(chain.update(Some((&e, &m)), true).source, StepSource::Prior);
     }
 
