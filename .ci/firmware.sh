@@ -75,6 +75,14 @@ for target in "${ARM_TARGETS[@]}"; do
         "$target_dir/$target/release/examples/lidar_heading"
 done
 
+# Keyframe odometry on a robot's stream (issue 39): examples/keyframe_odometry.rs
+# chains the bundled Seattle scans with the reference built in RAM; it exits 1
+# unless the chained heading ends within 2° of the corrected poses'. The
+# Cortex-M4F only: it does not fit the micro:bit's 16 KiB.
+section "keyframe odometry on the Cortex-M4F"
+"$budgets" run --machine mps2-an386 --timeout 120 \
+    "$target_dir/thumbv7em-none-eabihf/release/examples/keyframe_odometry"
+
 section "examples build for riscv32imac-unknown-none-elf"
 cargo build --release --examples --target riscv32imac-unknown-none-elf
 

@@ -448,10 +448,16 @@ mod tests {
         let mut chain = KeyframeOdometry::new(KeyframeSettings::default());
         chain.start();
         let (e, m) = step(0.0, Status::Confident, 0.5);
-        assert!(chain.update(Some((&e, &m)), false).new_keyframe, "overlap 0.5 < 0.6");
+        assert!(
+            chain.update(Some((&e, &m)), false).new_keyframe,
+            "overlap 0.5 < 0.6"
+        );
         // Low overlap 100° from the prediction (0°): beyond 3σ = 90°.
         let (e, m) = step(100.0, Status::LowOverlap, 0.2);
-        assert_eq!(chain.update(Some((&e, &m)), true).source, StepSource::Predicted);
+        assert_eq!(
+            chain.update(Some((&e, &m)), true).source,
+            StepSource::Predicted
+        );
         let (e, m) = step(45.0, Status::LowOverlap, 0.2);
         assert_eq!(chain.update(Some((&e, &m)), true).source, StepSource::Prior);
     }
