@@ -15,19 +15,19 @@
 //! `bash .ci/firmware.sh` runs both around the firmware on the Cortex-M4F and
 //! the Cortex-M0.
 
-#[path = "mcu_pairs.rs"]
-pub mod pairs;
-
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand};
 use hough_heading::{Mode, Thresholds};
 
-use super::engine::View;
-use super::scans::{self, PairRecord, RasterOptions, ScanRecord};
-use super::{engine_for, lines, read_input, Fatal};
-use pairs::ScanHeader;
+use hough_heading_recordings::engine::View;
+use hough_heading_recordings::mcu_pairs::{self as pairs, ScanHeader};
+use hough_heading_recordings::options::engine_for;
+use hough_heading_recordings::pairs::{self as scans, PairRecord, RasterOptions, ScanRecord};
+use hough_heading_recordings::Fatal;
+
+use crate::input::{lines, read_input};
 
 /// `mcu`.
 #[derive(Clone, Debug, Args)]

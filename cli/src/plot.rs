@@ -9,15 +9,65 @@ use std::error::Error;
 use std::path::{Path, PathBuf};
 use std::sync::Once;
 
+use clap::{Args, Subcommand};
 use hough_heading::{Estimate, Mode};
+use hough_heading_recordings::answer::load_images;
+use hough_heading_recordings::engine::{Engine, Figures, View};
+use hough_heading_recordings::image::Image;
+use hough_heading_recordings::options::{BeamArgs, EstimatorArgs, ImageArgs, ScanGridArgs};
+use hough_heading_recordings::pairs::{self as scans, PairRecord, RasterOptions, Truth};
+use hough_heading_recordings::Fatal;
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::engine::{Engine, Figures, View};
-use super::scans::{self, PairRecord, RasterOptions, Truth};
-use super::{lines, load_images, read_input, Fatal, PlotArgs, PlotWhat};
-use crate::images::Image;
+use crate::input::{lines, read_input};
+
+/// `plot`.
+#[derive(Clone, Debug, Args)]
+pub struct PlotArgs {
+    /// What to plot.
+    #[command(subcommand)]
+    pub what: PlotWhat,
+    /// Output directory (created).
+    #[arg(long, short, global = true, default_value = "figures")]
+    pub out: PathBuf,
+}
+
+/// `plot images` or `plot scans`.
+#[derive(Clone, Debug, Subcommand)]
+pub enum PlotWhat {
+    /// Figures of two images.
+    Images {
+        /// Reference image A.
+        a: PathBuf,
+        /// Image B.
+        b: PathBuf,
+        /// How images are read.
+        #[command(flatten)]
+        image: ImageArgs,
+        /// Estimator options.
+        #[command(flatten)]
+        estimator: EstimatorArgs,
+    },
+    /// Figures of scan pairs of a pair file.
+    Scans {
+        /// Pair file.
+        pairs: PathBuf,
+        /// 0-based line indices, comma separated.
+        #[arg(long, value_delimiter = ',', required = true)]
+        index: Vec<usize>,
+        /// How scans become grids.
+        #[command(flatten)]
+        grid: ScanGridArgs,
+        /// What the beams do after the grid estimate.
+        #[command(flatten)]
+        beams: BeamArgs,
+        /// Estimator options.
+        #[command(flatten)]
+        estimator: EstimatorArgs,
+    },
+}
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
 type Drawn = Result<(), Box<dyn Error>>;

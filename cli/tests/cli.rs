@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use hough_heading::Mode;
-use hough_heading_cli::scans::wrap_deg;
+use hough_heading_recordings::pairs::wrap_deg;
 
 // ---------------------------------------------------------------------------
 // The command-line tool.
@@ -381,7 +381,7 @@ fn a_closed_output_pipe_is_not_a_panic() {
 #[test]
 fn reference_writes_a_scan_reference_the_library_reads() {
     use hough_heading::{estimator, grid, scan_reference, Raster};
-    use hough_heading_cli::scans::{PairRecord, Truth};
+    use hough_heading_recordings::pairs::{PairRecord, Truth};
     type Stored = scan_reference!(128, 128, 360, 2048);
     let pairs = data_dir().join("scans.jsonl");
     let out = scratch("reference").join("dock.hhs");
@@ -693,8 +693,8 @@ fn real_fr079_pairs_with_overlap_are_mostly_within_two_degrees() {
     let Some(text) = real_data("fr079-flirt_pairs.jsonl") else {
         return;
     };
-    use hough_heading_cli::scans::{estimate, PairRecord, RasterOptions, Truth};
-    let mut engine = hough_heading_cli::engine::engine(256, 360).unwrap();
+    use hough_heading_recordings::pairs::{estimate, PairRecord, RasterOptions, Truth};
+    let mut engine = hough_heading_recordings::engine::engine(256, 360).unwrap();
     let options = RasterOptions {
         cell: None,
         connect: None,

@@ -617,8 +617,8 @@ fn robotlaser1_lines_give_the_pair_files_estimate() {
 /// process (errors allowed, panics not).
 #[test]
 fn damaged_recordings_never_panic_the_readers() {
-    use hough_heading_cli::log::carmen::{CarmenReader, FlaserGeometry};
-    use hough_heading_cli::log::ros2::BagReader;
+    use hough_heading_recordings::carmen::{CarmenReader, FlaserGeometry};
+    use hough_heading_recordings::ros2::BagReader;
 
     let bag = std::fs::read(logs().join("seattle-bag.mcap")).expect("bag");
     let read_bag = |bytes: &[u8]| {
@@ -649,10 +649,10 @@ fn damaged_recordings_never_panic_the_readers() {
     let read_ros1 = |bytes: &[u8]| {
         for topic in ["/scan", "/odom"] {
             let reader =
-                hough_heading_cli::log::ros1::BagReader::new(bytes, "bag", topic, Some("/odom"));
+                hough_heading_recordings::ros1::BagReader::new(bytes, "bag", topic, Some("/odom"));
             for _ in reader.take(100) {}
         }
-        let _ = hough_heading_cli::log::ros1::topics(bytes, "bag");
+        let _ = hough_heading_recordings::ros1::topics(bytes, "bag");
     };
     for cut in (0..ros1.len()).step_by(53) {
         read_ros1(&ros1[..cut]);
