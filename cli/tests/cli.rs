@@ -2,40 +2,17 @@
 //! bad input, and a check on the real scan pairs (skipped when
 //! `../shared/data` is absent, except on CI).
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
+use std::path::Path;
+use std::process::Command;
+
+use common::{data_dir, scratch, stderr, stdout, tool};
 use hough_heading::Mode;
 use hough_heading_recordings::pairs::wrap_deg;
 
 // ---------------------------------------------------------------------------
 // The command-line tool.
-
-fn data_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data")
-}
-
-fn tool(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hough-heading"))
-        .args(args)
-        .output()
-        .expect("run hough-heading")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// A scratch directory for one test.
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("hough-heading-cli-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 fn image_file(name: &str) -> String {
     data_dir().join("images").join(name).display().to_string()
