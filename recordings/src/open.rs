@@ -42,8 +42,6 @@ pub enum Format {
     Xv11,
 }
 
-/// Which scan pairs are estimated.
-
 /// What [`open_recording`] opens: the file and the options of reading it
 /// (the tool's `log FILE --format … --topic …`).
 #[derive(Clone, Debug)]
@@ -265,11 +263,6 @@ fn mcap_events(
     }))
 }
 
-/// Runs `log`; the number of failed records and pairs.
-///
-/// # Errors
-/// A [`Fatal`] error for unusable arguments or files, or a recording without
-
 /// The message types a bag names its scans and odometry by.
 #[derive(Clone, Copy, Debug)]
 pub struct BagTypes {
@@ -340,8 +333,7 @@ pub fn choose_topics(
     Ok((topic, odom))
 }
 
-/// Pairs the scans of `events` as asked; the number of scans read. Every
-
+/// A deterministic spread of values for the readers' damage tests
 /// (xorshift64 from `seed`, not zero).
 #[cfg(test)]
 pub(crate) fn xorshift(seed: u64) -> impl FnMut() -> u64 {
