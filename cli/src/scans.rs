@@ -8,8 +8,9 @@ use std::time::Instant;
 use clap::Args;
 use hough_heading::Mode;
 use hough_heading_recordings::engine::Engine;
+use hough_heading_recordings::line::OutputLine;
 use hough_heading_recordings::options::{BeamArgs, EstimatorArgs, ScanGridArgs};
-use hough_heading_recordings::pairs::{self, OutputLine, PairRecord, Truth};
+use hough_heading_recordings::pairs::{self, PairRecord, Truth};
 use hough_heading_recordings::Fatal;
 
 use crate::input::{lines, progress, read_input};

@@ -27,10 +27,9 @@ use clap::Parser;
 use hough_heading::{Angle, Mode, Prior};
 use hough_heading_recordings::answer::{images_result, place_images};
 use hough_heading_recordings::image::Image;
+use hough_heading_recordings::line::OutputLine;
 use hough_heading_recordings::options::{EstimatorArgs, ImageArgs};
-use hough_heading_recordings::pairs::{
-    self as scans, OutputLine, PairRecord, RasterOptions, ScanRecord,
-};
+use hough_heading_recordings::pairs::{self as scans, PairRecord, RasterOptions, ScanRecord};
 use numpy::{PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;

@@ -30,6 +30,7 @@ pub mod engine;
 pub mod error;
 pub mod evo;
 pub mod image;
+pub mod line;
 pub mod mcu_pairs;
 pub mod model;
 pub mod open;

@@ -9,7 +9,7 @@ use hough_heading_recordings::trajectory::{Step, Trajectory};
 use hough_heading_recordings::Fatal;
 use plotters::prelude::*;
 
-use crate::plot::{register_font, FONT};
+use crate::plot::style::{register_font, FONT};
 
 /// Draws the figure of `t` (PNG).
 ///

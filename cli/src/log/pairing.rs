@@ -8,10 +8,9 @@ use std::sync::Arc;
 
 use hough_heading::{Angle, Mode, Prior};
 use hough_heading_recordings::engine::Engine;
+use hough_heading_recordings::line::OutputLine;
 use hough_heading_recordings::model::{Event, Pose};
-use hough_heading_recordings::pairs::{
-    self as scans, Check, OutputLine, PairRecord, RasterOptions, Truth,
-};
+use hough_heading_recordings::pairs::{self as scans, Check, PairRecord, RasterOptions, Truth};
 use hough_heading_recordings::trajectory::{Kept, Trajectory};
 use hough_heading_recordings::{Fatal, RecordError};
 use indicatif::ProgressBar;
