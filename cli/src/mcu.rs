@@ -4,7 +4,7 @@
 //! - `mcu export PAIRS.jsonl... --out pairs.bin [--limit N]` writes the first
 //!   `N` pairs of each pair file in the compact binary form the firmware
 //!   example `examples/real_scans.rs` reads (format: [`pairs`], i.e.
-//!   `cli/src/mcu_pairs.rs`, which the firmware compiles too).
+//!   `recordings/src/mcu_pairs.rs`, which the firmware compiles too).
 //! - `mcu check pairs.bin LOG...` estimates every pair of `pairs.bin` as
 //!   `hough-heading scans --size 128 --n-theta 360` does (same engine, same
 //!   [`scans::estimate`], from the ranges as the firmware decodes them) and
