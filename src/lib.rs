@@ -128,6 +128,7 @@ mod estimate;
 mod grid;
 mod math;
 mod motion;
+pub mod odometry;
 mod pose;
 mod profile;
 mod reference;

@@ -55,7 +55,7 @@ mod beam;
 mod free;
 mod judge;
 mod refine;
-mod sine;
+pub(crate) mod sine;
 
 pub use beam::{BeamEnd, ScanBeams, BEAM_FAR_CELLS, BEAM_MAX_MISSING, BEAM_NEAR_CELLS};
 pub use free::{FreeSpace, FREE_MARGIN_CELLS, FREE_MARGIN_SHIFT};

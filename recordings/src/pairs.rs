@@ -201,14 +201,15 @@ pub fn estimate_with_prior(
         .map(|&mode| {
             let mut estimate = engine.estimate_with_prior(mode, prior);
             // The check first: it may replace the answer, which is then
-            // the one refined. With a prior it only flags (the prior chose).
+            // the one refined. With a prior it only flags (the prior chose),
+            // and a rival the prior rules out contradicts nothing.
             let beam_check = options
                 .beam_check
                 .then(|| raster.check_on_beams(&s1, &s2, &estimate))
                 .flatten();
             if let Some(check) = &beam_check {
                 match prior {
-                    Some(_) => check.flag(&mut estimate),
+                    Some(_) => check.given(prior).flag(&mut estimate),
                     None => check.apply(&mut estimate),
                 }
             }

@@ -93,6 +93,12 @@ impl Trajectory {
         }
     }
 
+    /// Adds `scan` at `pose`, chained elsewhere (`log --prior motion`,
+    /// `--pairs keyframes`); `source` says how.
+    pub fn add_chained(&mut self, scan: &Kept, pose: Pose, source: &'static str) {
+        self.push(scan, pose, source);
+    }
+
     /// Adds the pair `a → b` (`a` is the last pose of the chain).
     pub fn add(&mut self, a: &Kept, b: &Kept, estimate: Option<&PairEstimate>, odom: Option<Pose>) {
         if self.steps.is_empty() {

@@ -346,7 +346,14 @@ impl<
                 fit.as_ref(),
             ))
         } else {
-            None
+            // A candidate the prior picked: its own search's translation.
+            seeds
+                .iter()
+                .find(|seed| seed.placement.alpha == chosen)
+                .map(|seed| {
+                    let shift = shift_q8(seed.placement.shift);
+                    verified_translation::<N>(chosen, shift, seed.scale_q16, None)
+                })
         };
         Estimate {
             alpha: chosen,

@@ -65,7 +65,7 @@ use super::sine::sin_cos;
 use super::{Raster, Scan};
 use crate::angle::Angle;
 use crate::pose::Pose;
-use crate::{Estimate, Score, Status};
+use crate::{Estimate, Prior, Score, Status};
 use fixed::types::I16F16;
 use heapless::Vec;
 
@@ -237,6 +237,25 @@ impl BeamCheck {
         Score::ONE
             .saturating_sub(seen.saturating_mul_int(BEAM_SEEN_THROUGH_CONFIDENCE))
             .clamp(Score::ZERO, Score::ONE)
+    }
+
+    /// The check as a prior sees it: the rival is dropped when it lies
+    /// farther than 3σ from the prior's α (the rule by which
+    /// [`Estimator::estimate_scans`](crate::Estimator::estimate_scans) picks
+    /// among the candidates), so a rotation the prior rules out (the half
+    /// turn of a robot's constant-velocity motion between two scans, say)
+    /// contradicts nothing. Without a prior, the check as it is.
+    pub fn given(self, prior: Option<Prior>) -> Self {
+        let Some(prior) = prior else {
+            return self;
+        };
+        let gate = Angle(prior.sigma.0.saturating_mul(3));
+        Self {
+            rival: self
+                .rival
+                .filter(|r| r.listed.distance(prior.alpha) <= gate),
+            ..self
+        }
     }
 
     /// Caps `estimate`'s confidence at [`confidence_cap`](Self::confidence_cap)

@@ -18,6 +18,10 @@ pub enum PairsArg {
     /// Every pair at most `--window` scans (and `--window-s` seconds) apart
     /// (loop-closure candidates).
     Window,
+    /// Keyframe odometry: each scan against the current keyframe, a new
+    /// keyframe when the overlap falls below 0.6 or an estimate is flagged;
+    /// always with the motion prior.
+    Keyframes,
 }
 
 /// Where the rotation prior comes from.
@@ -27,6 +31,12 @@ pub enum PriorArg {
     None,
     /// The log's odometry delta between the two scans.
     Odom,
+    /// Constant velocity: the chain's last step, repeated (scaled by the
+    /// scans' times when known). Consecutive pairs and keyframes only: a
+    /// flagged pair, or one beyond 3σ of the prediction, is estimated again
+    /// with it, and a flagged answer no candidate of which lies within 3σ
+    /// is replaced by the prediction (marked in the line's `chain`).
+    Motion,
 }
 
 /// `log FILE`.
@@ -63,12 +73,18 @@ pub struct LogArgs {
     #[arg(long, value_name = "SECONDS")]
     pub window_s: Option<f64>,
     /// `odom`: the odometry's rotation picks among the candidates (within
-    /// 3 × `--prior-sigma`).
-    #[arg(long, value_enum, default_value_t = PriorArg::None)]
-    pub prior: PriorArg,
-    /// One standard deviation of the odometry prior, degrees.
-    #[arg(long, value_name = "DEGREES", default_value_t = 10.0)]
-    pub prior_sigma: f64,
+    /// 3 × `--prior-sigma`); `motion`: the chain's constant-velocity
+    /// prediction does. Default: `motion` for consecutive and keyframe
+    /// pairs (a robot's stream), `none` for the others.
+    #[arg(long, value_enum)]
+    pub prior: Option<PriorArg>,
+    /// One standard deviation of the prior, degrees (default 10 for `odom`,
+    /// 30 for `motion` and keyframes).
+    #[arg(long, value_name = "DEGREES")]
+    pub prior_sigma: Option<f64>,
+    /// Shorthand for `--pairs keyframes`.
+    #[arg(long, conflicts_with = "pairs")]
+    pub keyframes: bool,
     /// Writes the chained consecutive estimates as poses: `FILE.tum` (TUM,
     /// `t x y z qx qy qz qw`, times from the recording) or `FILE.kitti`
     /// (KITTI rows) for evo, with `FILE-reference` (the log's poses) and
@@ -115,12 +131,44 @@ pub struct LogArgs {
 }
 
 impl LogArgs {
+    /// The pairs asked for (`--keyframes` is `--pairs keyframes`).
+    pub fn pairs(&self) -> PairsArg {
+        if self.keyframes {
+            PairsArg::Keyframes
+        } else {
+            self.pairs
+        }
+    }
+
+    /// The prior asked for, or the pairs' default (`motion` for a stream:
+    /// consecutive and keyframe pairs).
+    pub fn prior(&self) -> PriorArg {
+        match (self.prior, self.pairs()) {
+            (_, PairsArg::Keyframes) => PriorArg::Motion,
+            (Some(p), _) => p,
+            (None, PairsArg::Consecutive) => PriorArg::Motion,
+            (None, _) => PriorArg::None,
+        }
+    }
+
+    /// The prior's σ, degrees: `--prior-sigma`, or the prior's default.
+    pub fn prior_sigma(&self) -> f64 {
+        let default = if self.chained() { 30.0 } else { 10.0 };
+        self.prior_sigma.unwrap_or(default)
+    }
+
+    /// The run chains the scans (motion prior or keyframes).
+    pub fn chained(&self) -> bool {
+        self.prior() == PriorArg::Motion
+    }
+
     /// The name of `--pairs`, for the summary's heading.
     pub fn pairs_name(&self) -> &'static str {
-        match self.pairs {
+        match self.pairs() {
             PairsArg::Consecutive => "consecutive",
             PairsArg::Reference => "reference",
             PairsArg::Window => "window",
+            PairsArg::Keyframes => "keyframe",
         }
     }
 

@@ -12,6 +12,7 @@
 //! scan.
 
 mod args;
+pub mod chain;
 mod figure;
 mod pairing;
 
@@ -25,6 +26,7 @@ use hough_heading_recordings::{open_recording, Fatal, Opened};
 use indicatif::{ProgressBar, ProgressStyle};
 
 pub use args::{LogArgs, PairsArg, PriorArg};
+use chain::Chain;
 use pairing::{stream, Run};
 
 use crate::jobs::Workers;
@@ -42,11 +44,18 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
     if args.window == 0 {
         return Err(Fatal::usage("--window 0: must be at least 1"));
     }
-    if !(args.prior_sigma.is_finite() && args.prior_sigma > 0.0 && args.prior_sigma <= 90.0) {
+    let sigma = args.prior_sigma();
+    if !(sigma.is_finite() && sigma > 0.0 && sigma <= 90.0) {
         return Err(Fatal::usage(format!(
-            "--prior-sigma {}: must be in (0, 90] degrees",
-            args.prior_sigma
+            "--prior-sigma {sigma}: must be in (0, 90] degrees"
         )));
+    }
+    if args.prior() == PriorArg::Motion
+        && !matches!(args.pairs(), PairsArg::Consecutive | PairsArg::Keyframes)
+    {
+        return Err(Fatal::usage(
+            "--prior motion chains the scans: use it with --pairs consecutive or keyframes",
+        ));
     }
     if args.window_s.is_some_and(|w| !(w.is_finite() && w > 0.0)) {
         return Err(Fatal::usage(
@@ -68,9 +77,10 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
         }
         None => None,
     };
-    if (args.trajectory.is_some() || args.plot.is_some()) && args.pairs != PairsArg::Consecutive {
+    let chains = matches!(args.pairs(), PairsArg::Consecutive | PairsArg::Keyframes);
+    if (args.trajectory.is_some() || args.plot.is_some()) && !chains {
         return Err(Fatal::usage(
-            "--trajectory and --plot chain consecutive pairs: use them with --pairs consecutive",
+            "--trajectory and --plot chain the scans: use them with --pairs consecutive or keyframes",
         ));
     }
     let file = args.file.display().to_string();
@@ -101,10 +111,11 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
         failed: 0,
         summary: Summary::default(),
         // `--summary` on consecutive pairs also scores the chain (APE, RPE).
-        trajectory: (args.trajectory.is_some()
-            || args.plot.is_some()
-            || (args.summary && args.pairs == PairsArg::Consecutive))
+        trajectory: (args.trajectory.is_some() || args.plot.is_some() || (args.summary && chains))
             .then(Trajectory::default),
+        chain: args
+            .chained()
+            .then(|| Chain::new(args.prior_sigma(), args.pairs() != PairsArg::Keyframes)),
         stdout_closed: false,
         bar: bar.clone(),
     };

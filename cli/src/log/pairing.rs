@@ -17,6 +17,7 @@ use indicatif::ProgressBar;
 use serde::Serialize;
 
 use super::args::{LogArgs, PairsArg, PriorArg};
+use super::chain::{Chain, ChainLine};
 use crate::jobs::Workers;
 use crate::summary::{Method, Summary};
 
@@ -63,7 +64,14 @@ pub struct LogLine {
     /// `-corrected` log).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub log_pose: Option<Delta>,
+    /// What the chain made of the pair (`--prior motion`, `--pairs
+    /// keyframes`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub chain: Option<ChainLine>,
 }
+
+/// A pair's estimate, or why there is none.
+type PairResult = Result<Vec<scans::PairEstimate>, String>;
 
 /// A pair waiting for its estimate: the two scans and what the log says
 /// about their motion.
@@ -107,11 +115,23 @@ pub(super) struct Run<'a> {
     pub(super) failed: usize,
     pub(super) summary: Summary,
     pub(super) trajectory: Option<Trajectory>,
+    /// The chain of `--prior motion` and `--pairs keyframes`.
+    pub(super) chain: Option<Chain>,
     pub(super) stdout_closed: bool,
     pub(super) bar: ProgressBar,
 }
 
 impl Run<'_> {
+    /// The first scan of a chain (consecutive or keyframe pairs).
+    fn start(&mut self, first: &Kept) {
+        if let Some(t) = &mut self.trajectory {
+            t.start(first);
+        }
+        if let Some(c) = &mut self.chain {
+            c.start(first);
+        }
+    }
+
     /// Reports a record that could not be used, after the pairs before it.
     fn record_error(&mut self, error: RecordError) {
         self.pending.push(Pending::Error(error));
@@ -131,10 +151,10 @@ impl Run<'_> {
         let (s1, s2) = (&a.1, &b.1);
         let odom = s1.odom.zip(s2.odom).map(|(p, q)| p.between(&q));
         let log_pose = s1.log_pose.zip(s2.log_pose).map(|(p, q)| p.between(&q));
-        let prior = match (self.args.prior, odom) {
+        let prior = match (self.args.prior(), odom) {
             (PriorArg::Odom, Some(d)) => Some(Prior {
                 alpha: Angle::from_degrees(-d.theta.to_degrees() as f32),
-                sigma: Angle::from_degrees(self.args.prior_sigma as f32),
+                sigma: Angle::from_degrees(self.args.prior_sigma() as f32),
             }),
             _ => None,
         };
@@ -175,7 +195,10 @@ impl Run<'_> {
         });
         for (item, result) in pending.into_iter().zip(results) {
             match (item, result) {
-                (Pending::Pair(job), Some(result)) => self.write(&job, result)?,
+                (Pending::Pair(job), Some(result)) => {
+                    let (result, chained) = self.chain(&job, result);
+                    self.write(&job, result, chained)?;
+                }
                 (Pending::Error(error), _) => self.report(&error),
                 (Pending::Pair(_), None) => unreachable!("every pair is estimated"),
             }
@@ -183,12 +206,48 @@ impl Run<'_> {
         Ok(())
     }
 
+    /// Adds an estimated pair to the chain, if the run has one: the pair is
+    /// estimated again with the motion prior when the chain wants it. The
+    /// result (that one, then) and what the chain made of it.
+    fn chain(
+        &mut self,
+        job: &PairJob,
+        result: PairResult,
+    ) -> (PairResult, Option<(ChainLine, Pose)>) {
+        let Some(chain) = &self.chain else {
+            return (result, None);
+        };
+        let prior = result.as_ref().ok().and_then(|e| chain.prior_for(&e[0]));
+        let result = match prior {
+            Some(prior) => {
+                let (options, mode) = (self.options, self.mode);
+                let again = self
+                    .workers
+                    .map(std::slice::from_ref(job), |engine, _, job| {
+                        scans::estimate_with_prior(
+                            engine.as_mut(),
+                            &job.pair,
+                            &options,
+                            &[mode],
+                            Some(prior),
+                        )
+                    });
+                again.into_iter().next().unwrap_or(result)
+            }
+            None => result,
+        };
+        let chain = self.chain.as_mut().expect("checked above");
+        let added = chain.add(&job.b, result.as_ref().ok().map(|e| &e[0]), prior);
+        (result, Some(added))
+    }
+
     /// Writes one estimated pair's line, and adds it to the trajectory and
     /// the summary.
     fn write(
         &mut self,
         job: &PairJob,
-        result: Result<Vec<scans::PairEstimate>, String>,
+        result: PairResult,
+        chained: Option<(ChainLine, Pose)>,
     ) -> Result<(), Fatal> {
         let PairJob {
             a,
@@ -210,7 +269,10 @@ impl Run<'_> {
             }
         };
         if let Some(t) = &mut self.trajectory {
-            t.add(a, b, result.as_ref().ok().map(|e| &e[0]), *odom);
+            match &chained {
+                Some((line, pose)) => t.add_chained(b, *pose, line.source),
+                None => t.add(a, b, result.as_ref().ok().map(|e| &e[0]), *odom),
+            }
         }
         if self.args.summary {
             match (&result, log_pose) {
@@ -239,6 +301,7 @@ impl Run<'_> {
             t2: s2.time,
             odom: odom.as_ref().map(Delta::of),
             log_pose: log_pose.as_ref().map(Delta::of),
+            chain: chained.map(|(line, _)| line),
         })
         .map_err(|e| Fatal::io(format!("JSON output: {e}")))?;
         if !self.stdout_closed && writeln!(self.out, "{text}").is_err() {
@@ -298,14 +361,25 @@ fn stream_pairs(
         }
         let current: Kept = (index, Arc::new(scan));
         run.bar.set_message(format!("scan {index}"));
-        match args.pairs {
+        match args.pairs() {
             PairsArg::Consecutive => {
                 if let Some(previous) = kept.pop_back() {
                     run.pair(&previous, &current)?;
-                } else if let Some(t) = &mut run.trajectory {
-                    t.start(&current);
+                } else {
+                    run.start(&current);
                 }
                 kept.push_back(current);
+            }
+            PairsArg::Keyframes => {
+                // Each pair waits for the one before: its keyframe and
+                // prior come from that pair's estimate.
+                match run.chain.as_ref().and_then(|c| c.keyframe.clone()) {
+                    Some(keyframe) => {
+                        run.pair(&keyframe, &current)?;
+                        run.flush()?;
+                    }
+                    None => run.start(&current),
+                }
             }
             PairsArg::Reference => {
                 if index == args.reference {
@@ -330,7 +404,7 @@ fn stream_pairs(
             }
         }
     }
-    if args.pairs == PairsArg::Reference && reference.is_none() && scans > 0 {
+    if args.pairs() == PairsArg::Reference && reference.is_none() && scans > 0 {
         return Err(Fatal::usage(format!(
             "--reference {}: the recording has only {scans} scans",
             args.reference

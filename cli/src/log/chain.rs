@@ -1,0 +1,142 @@
+//! `log --prior motion` and `log --pairs keyframes`: the library's
+//! [`KeyframeOdometry`] over a recording's scans.
+//!
+//! Consecutive pairs with the motion prior: every scan is the keyframe of
+//! the next, and a pair whose estimate is flagged (or lies beyond 3σ of
+//! the constant-velocity prediction) is estimated again with the prior.
+//! Keyframe pairs: each scan against the current keyframe, a new keyframe
+//! when the library's rule says so ([`KeyframeOdometry::update`]).
+
+use hough_heading::odometry::{KeyframeOdometry, KeyframeSettings, StepSource};
+use hough_heading::{Angle, Motion, Prior, Score};
+use serde::Serialize;
+
+use hough_heading_recordings::model::Pose;
+use hough_heading_recordings::pairs::{self, PairEstimate};
+use hough_heading_recordings::trajectory::Kept;
+
+/// The chain of a run, and its keyframe.
+pub struct Chain {
+    odometry: KeyframeOdometry,
+    /// The current keyframe (keyframe pairs) or the last scan.
+    pub keyframe: Option<Kept>,
+}
+
+/// What the chain made of one pair, as the output line reports it.
+#[derive(Clone, Debug, Serialize)]
+pub struct ChainLine {
+    /// `estimate` (a confident estimate), `prior` (a flagged one taken as
+    /// the candidate nearest the constant-velocity prediction), `predicted`
+    /// (no estimate within 3σ of it: the prediction itself), `flagged` (a
+    /// flagged estimate with nothing yet to predict from).
+    pub source: &'static str,
+    /// The second scan is now the keyframe.
+    pub keyframe: bool,
+    /// The prior the pair was estimated again with (its α turned into the
+    /// robot's heading change, degrees, and σ), when it was.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub prior: Option<PriorLine>,
+    /// The second scan's chained pose: metres and degrees, in the first
+    /// scan's frame.
+    pub x_m: f64,
+    /// y, metres.
+    pub y_m: f64,
+    /// Heading, degrees in (−180, 180].
+    pub theta_deg: f64,
+}
+
+/// A motion prior, in the robot's terms.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct PriorLine {
+    /// Predicted heading change, degrees.
+    pub dtheta_deg: f64,
+    /// One standard deviation, degrees.
+    pub sigma_deg: f64,
+}
+
+impl Chain {
+    /// A chain whose keyframe moves on every scan (`every_scan`: consecutive
+    /// pairs) or by the library's rule, with σ = `sigma_deg`.
+    pub fn new(sigma_deg: f64, every_scan: bool) -> Self {
+        let mut settings = KeyframeSettings {
+            prior_sigma: Angle::from_degrees(sigma_deg as f32),
+            ..KeyframeSettings::default()
+        };
+        if every_scan {
+            settings.min_overlap = Score::MAX;
+        }
+        Self {
+            odometry: KeyframeOdometry::new(settings),
+            keyframe: None,
+        }
+    }
+
+    /// The first scan.
+    pub fn start(&mut self, first: &Kept) {
+        self.odometry.start();
+        self.keyframe = Some(first.clone());
+    }
+
+    /// The prior to estimate the next scan again with, when its `estimate`
+    /// against the keyframe wants one.
+    pub fn prior_for(&self, estimate: &PairEstimate) -> Option<Prior> {
+        self.odometry
+            .wants_prior(&estimate.estimate)
+            .then(|| self.odometry.prior())
+            .flatten()
+    }
+
+    /// Adds `scan` with its estimate against the keyframe (`None`: it
+    /// failed), made with `prior` if given; the line to report and the
+    /// scan's pose.
+    pub fn add(
+        &mut self,
+        scan: &Kept,
+        estimate: Option<&PairEstimate>,
+        prior: Option<Prior>,
+    ) -> (ChainLine, Pose) {
+        let motion = estimate.map(|e| Motion {
+            dtheta: e.dtheta_deg.to_radians() as f32,
+            translation: e.translation.map(|(x, y)| (x as f32, y as f32)),
+        });
+        let step = self.odometry.update(
+            estimate.zip(motion.as_ref()).map(|(e, m)| (&e.estimate, m)),
+            prior.is_some(),
+        );
+        if step.new_keyframe {
+            self.keyframe = Some(scan.clone());
+        }
+        let pose = Pose {
+            x: f64::from(step.pose.x),
+            y: f64::from(step.pose.y),
+            theta: f64::from(step.pose.heading.to_degrees()).to_radians(),
+        };
+        let line = ChainLine {
+            source: source_name(step.source),
+            keyframe: step.new_keyframe,
+            prior: prior.map(|p| PriorLine {
+                dtheta_deg: round(-f64::from(p.alpha.to_degrees())),
+                sigma_deg: round(f64::from(p.sigma.to_degrees())),
+            }),
+            x_m: round(pose.x),
+            y_m: round(pose.y),
+            theta_deg: round(pose.theta.to_degrees()),
+        };
+        (line, pose)
+    }
+}
+
+/// The output name of a step's source.
+pub fn source_name(source: StepSource) -> &'static str {
+    match source {
+        StepSource::Start => "start",
+        StepSource::Estimate => "estimate",
+        StepSource::Prior => "prior",
+        StepSource::Predicted => "predicted",
+        StepSource::Flagged => "flagged",
+    }
+}
+
+fn round(v: f64) -> f64 {
+    pairs::round(v, 4)
+}
