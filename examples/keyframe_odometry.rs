@@ -38,7 +38,7 @@
 mod support;
 
 #[cfg(target_os = "none")]
-#[path = "../cli/src/mcu_pairs.rs"]
+#[path = "../recordings/src/mcu_pairs.rs"]
 mod pairs;
 
 #[cfg(target_os = "none")]

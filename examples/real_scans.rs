@@ -1,7 +1,7 @@
 //! Firmware example: real laser scan pairs from the host, estimated on the
 //! MCU, results back to the host (issue 16, item 4).
 //!
-//! The program reads a binary pair file (format in `cli/src/mcu_pairs.rs`, written
+//! The program reads a binary pair file (format in `recordings/src/mcu_pairs.rs`, written
 //! by `hough-heading mcu export`; by default the bundled
 //! `host-tests/data/real-pairs.bin`, relative to QEMU's working directory,
 //! another with `HH_REAL_PAIRS=path` at build time) through semihosting
@@ -62,7 +62,7 @@
 mod support;
 
 #[cfg(target_os = "none")]
-#[path = "../cli/src/mcu_pairs.rs"]
+#[path = "../recordings/src/mcu_pairs.rs"]
 mod pairs;
 
 #[cfg(target_os = "none")]

@@ -102,11 +102,13 @@
 //!   [`config`]);
 //! * [`Grid`], [`Angle`], [`Score`], [`Error`];
 //! * the answer: [`Estimate`], [`Status`], [`Candidate`]
-//!   ([`MAX_CANDIDATES`]), [`HalfTurnTest`] / [`HalfTurn`], [`Pose`]
+//!   ([`stages::MAX_CANDIDATES`]), [`HalfTurn`] (its test:
+//!   [`stages::HalfTurnTest`]), [`Pose`]
 //!   (the pose: translation, scale, residual);
 //! * scans: [`Scan`], [`SensorOffset`], [`Raster`], [`ScanStats`],
 //!   [`FreeSpace`] (what the beams saw through), [`BeamCheck`] /
-//!   [`BeamPose`] / [`BeamAgreement`] (the check on the beams), [`BeamFit`] /
+//!   [`stages::BeamPose`] / [`stages::BeamAgreement`] (the check on the
+//!   beams), [`BeamFit`] /
 //!   [`BeamFitError`] (the refinement on the beams), [`Motion`].
 //!
 //! Under [`config`]: the sizes (`row_words`, `half_turn_steps`, `rho_bins`,
@@ -137,19 +139,16 @@ mod signature;
 mod trig;
 
 pub use angle::Angle;
-pub use direction::{HalfTurn, HalfTurnTest};
+pub use direction::HalfTurn;
 pub use error::Error;
-pub use estimate::{
-    Candidate, Estimate, Estimator, Mode, Prior, Status, Thresholds, MAX_CANDIDATES,
-};
+pub use estimate::{Candidate, Estimate, Estimator, Mode, Prior, Status, Thresholds};
 pub use grid::Grid;
 pub use motion::Motion;
 pub use pose::scale::ScaleRange;
 pub use pose::Pose;
 pub use reference::{Reference, ScanReference};
 pub use scan::{
-    BeamAgreement, BeamCheck, BeamFit, BeamFitError, BeamPose, FreeSpace, Raster, Scan, ScanStats,
-    SensorOffset,
+    BeamCheck, BeamFit, BeamFitError, FreeSpace, Raster, Scan, ScanStats, SensorOffset,
 };
 
 /// The pipeline's stages on their own, below the [`Estimator`]: Hough votes,
@@ -164,7 +163,8 @@ pub mod stages {
         SPLIT_VOTE_BITS, UNIT_SCALE_Q16,
     };
     pub use crate::correlation::{Correlation, Peak, MAX_PEAKS};
-    pub use crate::direction::paper_asymmetry;
+    pub use crate::direction::{paper_asymmetry, HalfTurnTest};
+    pub use crate::estimate::MAX_CANDIDATES;
     pub use crate::pose::scale::MAX_COARSE_STEPS;
     pub use crate::pose::{fit_translation, ColumnShift, MAX_FIT_COLUMNS};
     pub use crate::profile::{
@@ -172,12 +172,13 @@ pub mod stages {
     };
     pub use crate::reference::{Profile, PROFILE_COLUMNS, REFERENCE_FORMAT, SCAN_REFERENCE_FORMAT};
     pub use crate::scan::{
-        range_percentile, BeamEnd, ScanBeams, AUTO_MAX_RADIUS_M, AUTO_MIN_RADIUS_M,
-        AUTO_PERCENTILE, BEAM_FAR_CELLS, BEAM_FIT_MAX_ITERATIONS, BEAM_FIT_MAX_ROTATION_DEG,
-        BEAM_FIT_MAX_SHIFT_CELLS, BEAM_FIT_MIN_PAIRS, BEAM_MATCH_M, BEAM_MAX_MISSING,
-        BEAM_MIN_SCORE, BEAM_NEAR_CELLS, BEAM_RIVAL_MAX_ROTATION_DEG, BEAM_SEEN_THROUGH_CONFIDENCE,
-        BEAM_SEEN_THROUGH_M, BEAM_SEEN_THROUGH_WEIGHT, BEAM_SEGMENT_MAX_M, BEAM_SWITCH_LEAD,
-        BEAM_TRIM_MAX_M, BEAM_TRIM_MIN_M, FREE_MARGIN_CELLS, FREE_MARGIN_SHIFT,
+        range_percentile, BeamAgreement, BeamEnd, BeamPose, ScanBeams, AUTO_MAX_RADIUS_M,
+        AUTO_MIN_RADIUS_M, AUTO_PERCENTILE, BEAM_FAR_CELLS, BEAM_FIT_MAX_ITERATIONS,
+        BEAM_FIT_MAX_ROTATION_DEG, BEAM_FIT_MAX_SHIFT_CELLS, BEAM_FIT_MIN_PAIRS, BEAM_MATCH_M,
+        BEAM_MAX_MISSING, BEAM_MIN_SCORE, BEAM_NEAR_CELLS, BEAM_RIVAL_MAX_ROTATION_DEG,
+        BEAM_SEEN_THROUGH_CONFIDENCE, BEAM_SEEN_THROUGH_M, BEAM_SEEN_THROUGH_WEIGHT,
+        BEAM_SEGMENT_MAX_M, BEAM_SWITCH_LEAD, BEAM_TRIM_MAX_M, BEAM_TRIM_MIN_M, FREE_MARGIN_CELLS,
+        FREE_MARGIN_SHIFT,
     };
     pub use crate::signature::{ColumnStats, PeakKind, Signature, ASYMMETRY_FRACTION_BITS};
     pub use crate::trig::{TrigTable, TRIG_FRACTION_BITS};

@@ -4,19 +4,33 @@
 //! scan pairs with ground truth.
 
 use std::borrow::Cow;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use clap::Args;
 use hough_heading::Mode;
+use hough_heading_recordings::answer::{images_result, place_images};
+use hough_heading_recordings::engine::Engine;
+use hough_heading_recordings::image::{self as images, Fit, Threshold};
+use hough_heading_recordings::options::{engine_for, EstimatorArgs, ImageArgs, ModeArg};
+use hough_heading_recordings::pairs::{self as scans, wrap_deg, PairRecord, RasterOptions, Truth};
+use hough_heading_recordings::Fatal;
 use serde::Deserialize;
 
-use super::engine::Engine;
-use super::images::{self, Fit, Threshold};
-use super::scans::{self, wrap_deg, PairRecord, RasterOptions, Truth};
-use super::{
-    engine_for, images_result, lines, place_images, read_input, DemoArgs, EstimatorArgs, Fatal,
-    ImageArgs, ModeArg,
-};
+use crate::input::{lines, read_input};
+
+/// `demo`.
+#[derive(Clone, Debug, Args)]
+pub struct DemoArgs {
+    /// Read the demo's files from this directory (laid out as `cli/data` of
+    /// the source) instead of the copy bundled in the binary.
+    #[arg(long, value_name = "DIR", conflicts_with = "write_data")]
+    pub data: Option<PathBuf>,
+    /// Write the bundled files into DIR (created) and exit, e.g. to try the
+    /// other subcommands on them.
+    #[arg(long, value_name = "DIR")]
+    pub write_data: Option<PathBuf>,
+}
 
 /// Side of the bundled synthetic images.
 pub const IMAGE_SIZE: usize = 128;

@@ -4,7 +4,7 @@
 //! - `mcu export PAIRS.jsonl... --out pairs.bin [--limit N]` writes the first
 //!   `N` pairs of each pair file in the compact binary form the firmware
 //!   example `examples/real_scans.rs` reads (format: [`pairs`], i.e.
-//!   `cli/src/mcu_pairs.rs`, which the firmware compiles too).
+//!   `recordings/src/mcu_pairs.rs`, which the firmware compiles too).
 //! - `mcu check pairs.bin LOG...` estimates every pair of `pairs.bin` as
 //!   `hough-heading scans --size 128 --n-theta 360` does (same engine, same
 //!   [`scans::estimate`], from the ranges as the firmware decodes them) and
@@ -15,19 +15,19 @@
 //! `bash .ci/firmware.sh` runs both around the firmware on the Cortex-M4F and
 //! the Cortex-M0.
 
-#[path = "mcu_pairs.rs"]
-pub mod pairs;
-
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand};
 use hough_heading::{Mode, Thresholds};
 
-use super::engine::View;
-use super::scans::{self, PairRecord, RasterOptions, ScanRecord};
-use super::{engine_for, lines, read_input, Fatal};
-use pairs::ScanHeader;
+use hough_heading_recordings::engine::View;
+use hough_heading_recordings::mcu_pairs::{self as pairs, ScanHeader};
+use hough_heading_recordings::options::engine_for;
+use hough_heading_recordings::pairs::{self as scans, PairRecord, RasterOptions, ScanRecord};
+use hough_heading_recordings::Fatal;
+
+use crate::input::{lines, read_input};
 
 /// `mcu`.
 #[derive(Clone, Debug, Args)]

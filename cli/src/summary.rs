@@ -30,8 +30,8 @@
 
 use std::fmt::Write as _;
 
-use super::scans::{wrap_deg, PairEstimate, PairRecord, Truth};
-use super::stats::{markdown_header, markdown_row, quantile};
+use hough_heading_recordings::pairs::{wrap_deg, PairEstimate, PairRecord, Truth};
+use hough_heading_recordings::stats::{markdown_header, markdown_row, quantile};
 
 /// The columns of [`Summary::table`].
 const COLUMNS: [&str; 15] = [

@@ -2,40 +2,17 @@
 //! bad input, and a check on the real scan pairs (skipped when
 //! `../shared/data` is absent, except on CI).
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
+use std::path::Path;
+use std::process::Command;
+
+use common::{data_dir, scratch, stderr, stdout, tool};
 use hough_heading::Mode;
-use hough_heading_cli::scans::wrap_deg;
+use hough_heading_recordings::pairs::wrap_deg;
 
 // ---------------------------------------------------------------------------
 // The command-line tool.
-
-fn data_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data")
-}
-
-fn tool(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hough-heading"))
-        .args(args)
-        .output()
-        .expect("run hough-heading")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// A scratch directory for one test.
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("hough-heading-cli-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 fn image_file(name: &str) -> String {
     data_dir().join("images").join(name).display().to_string()
@@ -381,7 +358,7 @@ fn a_closed_output_pipe_is_not_a_panic() {
 #[test]
 fn reference_writes_a_scan_reference_the_library_reads() {
     use hough_heading::{estimator, grid, scan_reference, Raster};
-    use hough_heading_cli::scans::{PairRecord, Truth};
+    use hough_heading_recordings::pairs::{PairRecord, Truth};
     type Stored = scan_reference!(128, 128, 360, 2048);
     let pairs = data_dir().join("scans.jsonl");
     let out = scratch("reference").join("dock.hhs");
@@ -693,8 +670,8 @@ fn real_fr079_pairs_with_overlap_are_mostly_within_two_degrees() {
     let Some(text) = real_data("fr079-flirt_pairs.jsonl") else {
         return;
     };
-    use hough_heading_cli::scans::{estimate, PairRecord, RasterOptions, Truth};
-    let mut engine = hough_heading_cli::engine::engine(256, 360).unwrap();
+    use hough_heading_recordings::pairs::{estimate, PairRecord, RasterOptions, Truth};
+    let mut engine = hough_heading_recordings::engine::engine(256, 360).unwrap();
     let options = RasterOptions {
         cell: None,
         connect: None,

@@ -4,27 +4,14 @@
 //! `evo`'s definitions: APE = ‖t(P_i) − t(Q_i)‖, RPE = ‖trans((Q_i⁻¹Q_{i+1})⁻¹
 //! (P_i⁻¹P_{i+1}))‖. The Python tests run `evo` itself on the same files.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+
+use std::path::Path;
+
+use common::{scratch, tool};
 
 fn log_file() -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("data/logs/seattle-excerpt.log.gz")
-        .display()
-        .to_string()
-}
-
-fn tool(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hough-heading"))
-        .args(args)
-        .output()
-        .expect("the tool runs")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("hh-evo-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("scratch dir");
-    dir
+    common::log_path("seattle-excerpt.log.gz")
 }
 
 /// `(t, x, y, θ)` rows of a TUM file (θ from the quaternion, checked to be

@@ -149,16 +149,18 @@ fn fuzz_cli_image_decoder() {
             std::fs::File::create(&path)
                 .and_then(|mut f| f.write_all(&bytes))
                 .unwrap();
-            let threshold = hough_heading_cli::images::Threshold { level, invert };
-            match hough_heading_cli::images::read(&path, threshold) {
+            let threshold = hough_heading_recordings::image::Threshold { level, invert };
+            match hough_heading_recordings::image::read(&path, threshold) {
                 Ok(image) => {
                     decoded.set(decoded.get() + 1);
                     prop_assert!(image.count() > 0);
                     for fit in [
-                        hough_heading_cli::images::Fit::Centre,
-                        hough_heading_cli::images::Fit::None,
+                        hough_heading_recordings::image::Fit::Centre,
+                        hough_heading_recordings::image::Fit::None,
                     ] {
-                        if let Err(e) = hough_heading_cli::images::place(&image, "x.pbm", 64, fit) {
+                        if let Err(e) =
+                            hough_heading_recordings::image::place(&image, "x.pbm", 64, fit)
+                        {
                             prop_assert!(e.to_string().contains("x.pbm"), "{e}");
                         }
                     }
@@ -197,11 +199,11 @@ fn pair_line(beams: usize, ranges: &[Option<f32>]) -> String {
 
 #[test]
 fn fuzz_cli_scan_pairs() {
-    let mut engine =
-        hough_heading_cli::engine_for(64, 180).expect("64²/180 is compiled into the tool");
+    let mut engine = hough_heading_recordings::options::engine_for(64, 180)
+        .expect("64²/180 is compiled into the tool");
     let engine = std::cell::RefCell::new(&mut engine);
     let parsed = std::cell::Cell::new(0u32);
-    let options = hough_heading_cli::scans::RasterOptions {
+    let options = hough_heading_recordings::pairs::RasterOptions {
         cell: None,
         connect: None,
         disc: false,
@@ -228,11 +230,12 @@ fn fuzz_cli_scan_pairs() {
             } else {
                 line
             };
-            if let Ok(pair) = serde_json::from_slice::<hough_heading_cli::scans::PairRecord>(&line)
+            if let Ok(pair) =
+                serde_json::from_slice::<hough_heading_recordings::pairs::PairRecord>(&line)
             {
                 parsed.set(parsed.get() + 1);
                 let mut engine = engine.borrow_mut();
-                match hough_heading_cli::scans::estimate(
+                match hough_heading_recordings::pairs::estimate(
                     engine.as_mut(),
                     &pair,
                     &options,

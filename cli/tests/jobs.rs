@@ -7,32 +7,24 @@
 //! batch boundaries are crossed; bad lines in the middle check that the
 //! error messages keep their place.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use common::tool;
 use hough_heading_cli::jobs::BATCH_PER_THREAD;
-
-fn tool(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hough-heading"))
-        .args(args)
-        .output()
-        .expect("run hough-heading")
-}
 
 fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
 }
 
 fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("data")
-        .join(name)
+    common::data_dir().join(name)
 }
 
 fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("jobs-tests");
-    std::fs::create_dir_all(&dir).expect("scratch dir");
-    dir.join(name)
+    common::scratch_file("jobs-tests", name)
 }
 
 /// Runs `args` with `--jobs 1` and `--jobs 3` (and `{jobs}` in an argument

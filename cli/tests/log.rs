@@ -3,45 +3,15 @@
 //! estimates equal `scans` on the same scans in the pair format, the log's
 //! deltas equal the pair files' values, and bad input is a clear error.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
+use std::path::{Path, PathBuf};
+
+use common::{json_lines, log_path as data, logs, stderr, stdout, tool};
 use serde_json::Value;
 
-fn logs() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/logs")
-}
-
-fn data(name: &str) -> String {
-    logs().join(name).display().to_string()
-}
-
-fn tool(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hough-heading"))
-        .args(args)
-        .output()
-        .expect("the tool runs")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn json_lines(o: &Output) -> Vec<Value> {
-    stdout(o)
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("a JSON line"))
-        .collect()
-}
-
 fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("log-tests");
-    std::fs::create_dir_all(&dir).expect("scratch dir");
-    dir.join(name)
+    common::scratch_file("log-tests", name)
 }
 
 /// The fields `scans` and `log` both print, without the line index.
@@ -616,92 +586,6 @@ fn robotlaser1_lines_give_the_pair_files_estimate() {
 /// (in steps) and single-byte corruptions throughout it, and CARMEN lines
 /// with fields dropped, duplicated or replaced, are read to the end in
 /// process (errors allowed, panics not).
-#[test]
-fn damaged_recordings_never_panic_the_readers() {
-    use hough_heading_cli::log::carmen::{CarmenReader, FlaserGeometry};
-    use hough_heading_cli::log::ros2::BagReader;
-
-    let bag = std::fs::read(logs().join("seattle-bag.mcap")).expect("bag");
-    let read_bag = |bytes: &[u8]| {
-        for topic in ["/scan", "/odom"] {
-            let reader = BagReader::new(bytes, "bag", topic, Some("/odom"));
-            for _ in reader.take(100) {}
-        }
-    };
-    for cut in (0..bag.len()).step_by(53) {
-        read_bag(&bag[..cut]);
-    }
-    // A deterministic spread of positions and byte values.
-    let mut state = 0x2545_f491_4f6c_dd1du64;
-    let mut next = || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        state
-    };
-    for _ in 0..400 {
-        let mut damaged = bag.clone();
-        let at = (next() % damaged.len() as u64) as usize;
-        damaged[at] = (next() & 0xff) as u8;
-        read_bag(&damaged);
-    }
-    // The same for the ROS 1 bag (bz2 chunks).
-    let ros1 = std::fs::read(logs().join("seattle-bag.bag")).expect("bag");
-    let read_ros1 = |bytes: &[u8]| {
-        for topic in ["/scan", "/odom"] {
-            let reader =
-                hough_heading_cli::log::ros1::BagReader::new(bytes, "bag", topic, Some("/odom"));
-            for _ in reader.take(100) {}
-        }
-        let _ = hough_heading_cli::log::ros1::topics(bytes, "bag");
-    };
-    for cut in (0..ros1.len()).step_by(53) {
-        read_ros1(&ros1[..cut]);
-    }
-    for _ in 0..400 {
-        let mut damaged = ros1.clone();
-        let at = (next() % damaged.len() as u64) as usize;
-        damaged[at] = (next() & 0xff) as u8;
-        read_ros1(&damaged);
-    }
-    let text = std::fs::read_to_string(logs().join("seattle-excerpt.log")).expect("log");
-    let geometry = FlaserGeometry {
-        max_range: 81.91,
-        laser_offset: [0.0; 3],
-    };
-    let samples = [
-        "",
-        "-1",
-        "nan",
-        "1e400",
-        "18446744073709551616",
-        "x",
-        "0",
-        "361",
-    ];
-    for (i, line) in text
-        .lines()
-        .enumerate()
-        .filter(|(_, l)| l.starts_with("FLASER"))
-    {
-        let fields: Vec<&str> = line.split(' ').collect();
-        for _ in 0..30 {
-            let mut f = fields.clone();
-            let at = (next() % f.len() as u64) as usize;
-            match next() % 3 {
-                0 => {
-                    f.remove(at);
-                }
-                1 => f.insert(at, f[at]),
-                _ => f[at] = samples[(next() % samples.len() as u64) as usize],
-            }
-            let damaged = f.join(" ");
-            let reader = CarmenReader::new(damaged.as_bytes(), geometry);
-            assert!(reader.count() <= 1, "line {i}");
-        }
-    }
-}
-
 /// ROS 1 bags of the same messages as the MCAP bag (written by the
 /// `rosbags` Python package, bz2 and lz4 chunks) give the same output, line
 /// for line: the same scans, times and odometry, read by another container

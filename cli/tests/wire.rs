@@ -3,9 +3,11 @@
 //! `cli/data/logs/seattle-excerpt.log` by `tools/lidar_streams.py`, an
 //! encoder independent of the parsers).
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
+use std::path::{Path, PathBuf};
+
+use common::{json_lines, stderr, tool};
 use serde_json::Value;
 
 fn capture(name: &str) -> String {
@@ -16,28 +18,8 @@ fn capture(name: &str) -> String {
         .to_string()
 }
 
-fn tool(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hough-heading"))
-        .args(args)
-        .output()
-        .expect("the tool runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn json_lines(o: &Output) -> Vec<Value> {
-    String::from_utf8_lossy(&o.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("a JSON line"))
-        .collect()
-}
-
 fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("wire-tests");
-    std::fs::create_dir_all(&dir).expect("scratch dir");
-    dir.join(name)
+    common::scratch_file("wire-tests", name)
 }
 
 /// The estimate of a line, without where its scans come from.

@@ -10,7 +10,8 @@
 
 use std::f64::consts::TAU;
 
-use hough_heading::{Angle, Estimate, Estimator, Grid, HalfTurnTest, Status, Thresholds};
+use hough_heading::stages::HalfTurnTest;
+use hough_heading::{Angle, Estimate, Estimator, Grid, Status, Thresholds};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

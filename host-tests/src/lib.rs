@@ -19,10 +19,10 @@ pub mod reference;
 #[cfg(not(target_os = "none"))]
 pub mod scene;
 /// The project's one quantile (nearest rank) and Markdown table rows: the
-/// tool's file `cli/src/stats.rs`, compiled here too so that the test kit's
+/// host library's file `recordings/src/stats.rs`, compiled here too so that the test kit's
 /// figures and the tool's are the same statistic.
 #[cfg(not(target_os = "none"))]
-#[path = "../../cli/src/stats.rs"]
+#[path = "../../recordings/src/stats.rs"]
 pub mod stats;
 #[cfg(not(target_os = "none"))]
 pub mod verify_reference;

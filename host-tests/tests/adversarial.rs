@@ -1007,8 +1007,8 @@ fn public_functions_on_edge_arguments() {
 fn matching_functions_on_degenerate_data() {
     use hough_heading::{
         stages::fit_translation, stages::match_profile, stages::paper_asymmetry,
-        stages::ColumnShift, stages::Correlation, stages::Peak, stages::Shift, stages::RUNNERS_UP,
-        HalfTurn, HalfTurnTest,
+        stages::ColumnShift, stages::Correlation, stages::HalfTurnTest, stages::Peak,
+        stages::Shift, stages::RUNNERS_UP, HalfTurn,
     };
     const HALF: usize = 180;
     let zero = [0u16; HALF];

@@ -10,12 +10,10 @@ mod room_turns;
 
 use host_tests::raycast::{l_room as room, relative, Laser, Wall};
 use hough_heading::stages::{
-    BEAM_MATCH_M, BEAM_MIN_SCORE, BEAM_SEEN_THROUGH_CONFIDENCE, BEAM_SEEN_THROUGH_M,
-    BEAM_SEEN_THROUGH_WEIGHT, BEAM_SEGMENT_MAX_M,
+    BeamAgreement, BeamPose, BEAM_MATCH_M, BEAM_MIN_SCORE, BEAM_SEEN_THROUGH_CONFIDENCE,
+    BEAM_SEEN_THROUGH_M, BEAM_SEEN_THROUGH_WEIGHT, BEAM_SEGMENT_MAX_M,
 };
-use hough_heading::{
-    Angle, BeamAgreement, BeamCheck, BeamPose, Candidate, Estimate, Raster, Scan, Score, Status,
-};
+use hough_heading::{Angle, BeamCheck, Candidate, Estimate, Raster, Scan, Score, Status};
 
 /// A 180° laser of 361 beams, 30 m (the shared files' geometry).
 fn laser() -> Laser {

@@ -4,8 +4,9 @@
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use hough_heading::Mode;
-use hough_heading_cli::engine::Engine;
-use hough_heading_cli::scans::{OutputLine, PairRecord};
+use hough_heading_recordings::engine::Engine;
+use hough_heading_recordings::line::OutputLine;
+use hough_heading_recordings::pairs::PairRecord;
 use numpy::PyReadonlyArray2;
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;

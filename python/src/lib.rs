@@ -3,7 +3,8 @@
 //! the arguments, builds the option lists and wraps the answers).
 //!
 //! Every answer is the `hough-heading` tool's own JSON for the same input,
-//! made by the same functions of the tool's library (`hough_heading_cli`):
+//! made by the same functions as the tool's, those of the host library
+//! under it (`hough_heading_recordings`):
 //! the options are parsed by the tool's own `clap` definitions
 //! ([`EstimatorArgs`], [`ImageArgs`]), images go through
 //! [`place_images`] and [`images_result`], scan pairs through
@@ -24,9 +25,11 @@ use std::fmt::Display;
 
 use clap::Parser;
 use hough_heading::{Angle, Mode, Prior};
-use hough_heading_cli::images::Image;
-use hough_heading_cli::scans::{self, OutputLine, PairRecord, RasterOptions, ScanRecord};
-use hough_heading_cli::{images_result, place_images, EstimatorArgs, ImageArgs};
+use hough_heading_recordings::answer::{images_result, place_images};
+use hough_heading_recordings::image::Image;
+use hough_heading_recordings::line::OutputLine;
+use hough_heading_recordings::options::{EstimatorArgs, ImageArgs};
+use hough_heading_recordings::pairs::{self as scans, PairRecord, RasterOptions, ScanRecord};
 use numpy::{PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
@@ -258,7 +261,7 @@ pub fn prior_of(prior: Option<(f64, f64)>) -> PyResult<Option<Prior>> {
 
 /// Estimates one pair with `engine`, as `scans` prints line `index`.
 pub fn scan_answer(
-    engine: &mut dyn hough_heading_cli::engine::Engine,
+    engine: &mut dyn hough_heading_recordings::engine::Engine,
     pair: &PairRecord,
     grid: &ScanGrid,
     mode: Mode,
@@ -321,7 +324,7 @@ fn scans_json(
 /// The compiled configurations `(grid side, N_θ)`.
 #[pyfunction]
 fn configurations() -> Vec<(usize, usize)> {
-    hough_heading_cli::engine::CONFIGURATIONS.to_vec()
+    hough_heading_recordings::engine::CONFIGURATIONS.to_vec()
 }
 
 /// The native module.

@@ -1,13 +1,14 @@
 //! The recordings `hough-heading log` reads (CARMEN logs, plain or gzip;
 //! ROS 1 bags; ROS 2 bags in MCAP or SQLite, or their directories), read by
-//! the tool's own opener and readers: the scans as numpy arrays with their
-//! time, odometry and the log's own pose.
+//! the tool's own opener and readers (`hough_heading_recordings`): the scans
+//! as numpy arrays with their time, odometry and the log's own pose.
 
 use std::path::PathBuf;
 
 use clap::Parser;
-use hough_heading_cli::log::{self, Event, LogArgs, LogScan, Pose, RecordError};
-use hough_heading_cli::Fatal;
+use hough_heading_recordings::{
+    open_recording, Event, Fatal, Format, Opened, Pose, RecordError, Scan, Source,
+};
 use indicatif::ProgressBar;
 use numpy::PyArray1;
 use pyo3::exceptions::PyRuntimeError;
@@ -16,29 +17,45 @@ use pyo3::types::PyDict;
 
 use crate::{on_big_stack, value_error};
 
-/// The tool's `log` options (only the reading ones are used).
+/// The reading options of the tool's `log` (names, values and defaults
+/// as there).
 #[derive(Clone, Debug, Parser)]
 #[command(name = "hough_heading", no_binary_name = true)]
 struct LogOptions {
-    #[command(flatten)]
-    log: LogArgs,
+    /// The recording.
+    file: PathBuf,
+    /// Input format.
+    #[arg(long, value_enum, default_value_t = Format::Auto)]
+    format: Format,
+    /// Bags: the `LaserScan` topic.
+    #[arg(long)]
+    topic: Option<String>,
+    /// Bags: the `Odometry` topic.
+    #[arg(long, value_name = "TOPIC")]
+    odom_topic: Option<String>,
+    /// CARMEN `FLASER`: "no return" at or beyond this, metres.
+    #[arg(long, value_name = "METRES", default_value_t = 81.91)]
+    max_range: f32,
+    /// CARMEN `FLASER` and LaserScan: the laser pose `X,Y,THETA`.
+    #[arg(long, value_name = "X,Y,THETA", value_delimiter = ',', num_args = 3)]
+    laser_offset: Option<Vec<f32>>,
 }
 
 /// What a recording held: its scans, the records that failed, the format
 /// and the scan topic read.
 struct Read {
-    scans: Vec<LogScan>,
+    scans: Vec<Scan>,
     errors: Vec<RecordError>,
     format: &'static str,
     topic: Option<String>,
 }
 
-fn read(args: &LogArgs) -> Result<Read, Fatal> {
-    let file = args.file.display().to_string();
+fn read(source: &Source) -> Result<Read, Fatal> {
+    let file = source.file.display().to_string();
     let bar = ProgressBar::hidden();
-    let recording = match log::open_recording(args, &bar)? {
-        log::Opened::Recording(r) => r,
-        log::Opened::Capture(..) => {
+    let recording = match open_recording(source, &bar)? {
+        Opened::Recording(r) => r,
+        Opened::Capture(..) => {
             return Err(Fatal::usage(format!(
                 "{file}: raw lidar captures are not read here; convert one with \
                  `hough-heading wire --protocol PROTOCOL CAPTURE --out LOG` and read LOG"
@@ -49,9 +66,9 @@ fn read(args: &LogArgs) -> Result<Read, Fatal> {
         scans: Vec::new(),
         errors: Vec::new(),
         format: match recording.format {
-            log::Format::Mcap => "mcap",
-            log::Format::Ros1 => "ros1",
-            log::Format::Db3 => "db3",
+            Format::Mcap => "mcap",
+            Format::Ros1 => "ros1",
+            Format::Db3 => "db3",
             _ => "carmen",
         },
         topic: recording.topic,
@@ -67,7 +84,7 @@ fn read(args: &LogArgs) -> Result<Read, Fatal> {
                 }
                 out.scans.push(scan);
             }
-            Ok(Event::Odometry { pose, .. }) => last_odom = Some(pose),
+            Ok(Event::Odometry(o)) => last_odom = Some(o.pose),
             Err(e) => out.errors.push(e),
         }
     }
@@ -91,9 +108,8 @@ fn read_log<'py>(
     &'static str,
     Option<String>,
 )> {
-    let options = LogOptions::try_parse_from(&args)
+    let log = LogOptions::try_parse_from(&args)
         .map_err(|e| value_error(e.render().to_string().trim()))?;
-    let log = options.log;
     if !(log.max_range.is_finite() && log.max_range > 0.0) {
         return Err(value_error(format!(
             "max_range={}: must be a positive number of metres",
@@ -108,8 +124,16 @@ fn read_log<'py>(
         }
     }
     let path: PathBuf = log.file.clone();
+    let source = Source {
+        file: log.file,
+        format: log.format,
+        topic: log.topic,
+        odom_topic: log.odom_topic,
+        max_range: log.max_range,
+        laser_offset: log.laser_offset.map(|v| [v[0], v[1], v[2]]),
+    };
     let read = py
-        .detach(|| on_big_stack(|| read(&log)))
+        .detach(|| on_big_stack(|| read(&source)))
         .map_err(PyRuntimeError::new_err)?
         .map_err(|e| value_error(format!("{}: {e}", path.display())))?;
     let mut scans = Vec::with_capacity(read.scans.len());

@@ -1,13 +1,14 @@
 //! `Reference`: a grid prepared once (the library's `Reference`), stored as
 //! bytes (`to_bytes` / `from_bytes`, the firmware's format) and estimated
 //! against; the answer is the tool's `images` JSON
-//! ([`hough_heading_cli::images_answer`]).
+//! ([`hough_heading_recordings::answer::images_answer`]).
 
 use hough_heading::config::{half_turn_steps, pyramid_words, rho_bins, row_words};
 use hough_heading::{Estimate, Estimator, Grid, Mode, ScaleRange, Thresholds};
-use hough_heading_cli::engine::CONFIGURATIONS;
-use hough_heading_cli::images::Image;
-use hough_heading_cli::{images_answer, ModeArg};
+use hough_heading_recordings::answer::images_answer;
+use hough_heading_recordings::engine::CONFIGURATIONS;
+use hough_heading_recordings::image::Image;
+use hough_heading_recordings::options::ModeArg;
 use numpy::{PyArray2, PyReadonlyArray2};
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
@@ -160,17 +161,8 @@ macro_rules! typed {
     };
 }
 
-typed!(
-    (64, 180),
-    (64, 360),
-    (64, 720),
-    (128, 180),
-    (128, 360),
-    (128, 720),
-    (256, 180),
-    (256, 360),
-    (256, 720),
-);
+// The configurations the tool is compiled for, from their one list.
+hough_heading_recordings::with_configurations!(typed);
 
 fn configurations_text() -> String {
     let list: Vec<String> = CONFIGURATIONS

@@ -23,7 +23,7 @@ use crate::config::{align_points, ALIGN_POINTS};
 use crate::grid::Grid;
 use crate::math::sort_descending;
 use crate::pose::pyramid::{all_in_columns, any_in_columns, bits, grid_bits, Pyramid};
-use crate::pose::reach::ReachTables;
+use crate::pose::reach::{ReachTables, EXACT_LEVELS};
 use crate::trig::sin_cos_q15;
 
 /// A point of image 2 turned into the reference frame, in reference cells
@@ -478,13 +478,6 @@ impl Block {
         }
     }
 }
-
-/// Levels whose bound is tested exactly on the grid rows (`2ᵏ + 2 ≤ 18`
-/// rows and bits a point, within the 31 bits of [`any_in_columns`]): the
-/// exact bound at level 4 prunes so much more than the pyramid's that it
-/// pays for its longer reach (budget scene, M4F: 15.1 M → 12.3 M
-/// instructions with 4 instead of 3).
-pub(crate) const EXACT_LEVELS: usize = 4;
 
 /// Most top-level blocks of one search (a window of at most `4·2ᴸ + 1`
 /// cells per axis in blocks of `2^top`, `4·2^top` ≥ the window or `top = L`).

@@ -11,9 +11,9 @@ use hough_heading::odometry::{KeyframeOdometry, KeyframeSettings, StepSource};
 use hough_heading::{Angle, Motion, Prior, Score};
 use serde::Serialize;
 
-use super::trajectory::fused_delta;
-use super::{Kept, Pose};
-use crate::scans::PairEstimate;
+use hough_heading_recordings::model::Pose;
+use hough_heading_recordings::pairs::{self, PairEstimate};
+use hough_heading_recordings::trajectory::{fused_delta, Kept};
 
 /// The chain of a run, and its keyframe.
 pub struct Chain {
@@ -141,5 +141,5 @@ pub fn source_name(source: StepSource) -> &'static str {
 }
 
 fn round(v: f64) -> f64 {
-    crate::scans::round(v, 4)
+    pairs::round(v, 4)
 }

@@ -35,6 +35,7 @@
 //! verification's cost: `--region estimate --minus unverified`.
 
 mod elf;
+mod firmware;
 mod profile;
 mod qemu;
 mod real;
@@ -144,7 +145,7 @@ fn report(args: &[String]) -> Result<ExitCode, Error> {
     if !plugin.exists() {
         return Err(format!("plugin {} not built", plugin.display()).into());
     }
-    let paths = report::Paths {
+    let paths = firmware::Paths {
         root: root.clone(),
         plugin,
     };

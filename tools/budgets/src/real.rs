@@ -11,14 +11,14 @@
 
 use serde_json::{json, Map, Value};
 
+use crate::firmware::{build_example, group, labelled, suffix, Paths, Target};
 use crate::qemu::{self, field, number, Plugin};
-use crate::report::{Paths, Target};
 use crate::{elf, Error};
 
 /// Key of the real-scan entry in the budget file, for the library built
 /// with `features`.
 pub fn key(features: &str) -> String {
-    format!("real-scans/128x128/360{}", crate::report::suffix(features))
+    format!("real-scans/128x128/360{}", suffix(features))
 }
 
 /// Regions per pair.
@@ -36,7 +36,7 @@ pub fn measure(
     features: &str,
 ) -> Result<Result<Map<String, Value>, String>, Error> {
     let machine = target.machine.ok_or("not runnable")?;
-    let path = crate::report::build_example(paths, target, "real_scans", None, features)?;
+    let path = build_example(paths, target, "real_scans", None, features)?;
     let image = elf::read(&path)?;
     let plugin = Plugin {
         library: paths.plugin.clone(),
@@ -171,7 +171,7 @@ pub const HEADER: [&str; 15] = [
 /// One row of the real-scan table.
 pub fn row(target: &Target, features: &str, v: &Map<String, Value>) -> Vec<String> {
     let int = |k: &str| v.get(k).and_then(Value::as_u64);
-    let count = |k: &str| int(k).map_or("–".into(), crate::report::group);
+    let count = |k: &str| int(k).map_or("–".into(), group);
     let per_beam = v
         .get("real_rasterize_per_beam")
         .and_then(Value::as_f64)
@@ -181,7 +181,7 @@ pub fn row(target: &Target, features: &str, v: &Map<String, Value>) -> Vec<Strin
         _ => "–".into(),
     };
     vec![
-        crate::report::labelled(target.name.to_string(), features),
+        labelled(target.name.to_string(), features),
         count("pairs"),
         count("real_pair_median"),
         count("real_pair_max"),

@@ -17,9 +17,9 @@ use std::io::Read;
 use mcap::sans_io::LinearReaderOptions;
 use serde::Deserialize;
 
-use super::{Event, LogScan, Pose, RecordError};
-use crate::scans::ScanRecord;
-use crate::Fatal;
+use crate::error::{Fatal, RecordError};
+use crate::model::{Event, Odometry, Pose, Scan};
+use crate::pairs::ScanRecord;
 
 /// Largest MCAP record (and chunk, compressed or not) read, bytes: a
 /// corrupt length fails instead of allocating it.
@@ -127,7 +127,7 @@ fn check_string(data: &[u8], offset: usize) -> Result<usize, String> {
     Ok(at + 4 + len)
 }
 
-pub(super) fn decode_scan(data: &[u8]) -> Result<(LogScan, f64), String> {
+pub(super) fn decode_scan(data: &[u8]) -> Result<(Scan, f64), String> {
     check_string(data, 8)?;
     let msg: LaserScanMsg = cdr::deserialize(data).map_err(|e| format!("not a LaserScan: {e}"))?;
     scan_of(LaserFields {
@@ -158,7 +158,7 @@ pub(super) struct LaserFields {
 
 /// The scan of a `LaserScan` message and its stamp (REP 117: a range that
 /// is not finite or below `range_min` is no reading).
-pub(super) fn scan_of(msg: LaserFields) -> Result<(LogScan, f64), String> {
+pub(super) fn scan_of(msg: LaserFields) -> Result<(Scan, f64), String> {
     for (name, v) in [
         ("angle_min", msg.angle_min),
         ("angle_increment", msg.angle_increment),
@@ -188,7 +188,7 @@ pub(super) fn scan_of(msg: LaserFields) -> Result<(LogScan, f64), String> {
         .map(|&r| (r.is_finite() && r >= range_min).then_some(r))
         .collect();
     Ok((
-        LogScan {
+        Scan {
             record: ScanRecord {
                 ranges,
                 angle_min: msg.angle_min,
@@ -232,11 +232,7 @@ pub(super) fn odometry_pose(
 /// The item of a decoded scan message `named` (its record): the scan timed
 /// by its header stamp, or by `time` (the bag's own time of the message,
 /// seconds) when the stamp is zero.
-pub(super) fn scan_item(
-    decoded: Result<(LogScan, f64), String>,
-    time: f64,
-    named: String,
-) -> BagItem {
+pub(super) fn scan_item(decoded: Result<(Scan, f64), String>, time: f64, named: String) -> BagItem {
     Ok(match decoded {
         Ok((mut scan, stamp)) => {
             scan.time = Some(if stamp > 0.0 { stamp } else { time });
@@ -253,10 +249,10 @@ pub(super) fn odometry_item(
     named: String,
 ) -> BagItem {
     Ok(match decoded {
-        Ok((pose, stamp)) => Ok(Event::Odometry {
+        Ok((pose, stamp)) => Ok(Event::Odometry(Odometry {
             time: Some(if stamp > 0.0 { stamp } else { time }),
             pose,
-        }),
+        })),
         Err(e) => Err(RecordError::new(named, e)),
     })
 }
@@ -414,10 +410,10 @@ impl<R: Read> Iterator for BagReader<R> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{damaged, xorshift};
     use super::*;
+    use crate::open::{damaged, xorshift};
 
-    const BAG: &[u8] = include_bytes!("../../data/logs/seattle-bag.mcap");
+    const BAG: &[u8] = include_bytes!("../../cli/data/logs/seattle-bag.mcap");
 
     fn payloads(topic: &str) -> Vec<Vec<u8>> {
         messages(BAG)

@@ -1,4 +1,5 @@
-//! `--trajectory` and `--plot`: consecutive estimates chained into poses.
+//! `--trajectory` and `--plot` of `log`: consecutive estimates chained into
+//! poses.
 //!
 //! Each pair moves the pose by the estimate when it is `confident` and has
 //! a translation (`source` = `estimate`; where the translation is not
@@ -13,14 +14,17 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
-use hough_heading::Status;
-use plotters::prelude::*;
+use std::sync::Arc;
 
-use super::{Kept, Pose};
-use crate::plot::{register_font, FONT};
-use crate::scans::PairEstimate;
-use crate::stats::quantile;
-use crate::Fatal;
+use hough_heading::Status;
+
+use crate::error::Fatal;
+use crate::model::{Pose, Scan};
+use crate::pairs::PairEstimate;
+
+/// A scan kept for pairing: its index among the recording's scans, and the
+/// scan.
+pub type Kept = (usize, Arc<Scan>);
 
 /// Most scan points kept for the figure (the scans are thinned evenly).
 const MAX_POINTS: usize = 200_000;
@@ -181,116 +185,8 @@ impl Trajectory {
         out.flush().map_err(fail)
     }
 
-    /// Draws the figure (PNG).
-    ///
-    /// # Errors
-    /// An unwritable file.
-    pub fn plot(&self, path: &Path, title: &str) -> Result<(), Fatal> {
-        register_font();
-        self.draw(path, title)
-            .map_err(|e| Fatal::io(format!("{}: cannot draw: {e}", path.display())))
-    }
-
-    fn draw(&self, path: &Path, title: &str) -> Result<(), Box<dyn std::error::Error>> {
-        let track = |f: fn(&Step) -> Option<Pose>| -> Vec<(f64, f64)> {
-            self.steps
-                .iter()
-                .filter_map(f)
-                .map(|p| (p.x, p.y))
-                .collect()
-        };
-        let estimated = track(|s| Some(s.pose));
-        let odom = track(|s| s.odom);
-        let log = track(|s| s.log_pose);
-        // The tracks and the bulk of the points (2nd to 98th percentile on
-        // each axis: a few far returns would shrink the map to a dot).
-        let xs: Vec<f64> = self.points.iter().map(|p| p.0).collect();
-        let ys: Vec<f64> = self.points.iter().map(|p| p.1).collect();
-        let bulk: Vec<(f64, f64)> = if xs.is_empty() {
-            Vec::new()
-        } else {
-            vec![
-                (quantile(&xs, 0.02), quantile(&ys, 0.02)),
-                (quantile(&xs, 0.98), quantile(&ys, 0.98)),
-            ]
-        };
-        let all = estimated.iter().chain(&odom).chain(&log).chain(&bulk);
-        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-        for &(x, y) in all {
-            x0 = x0.min(x);
-            x1 = x1.max(x);
-            y0 = y0.min(y);
-            y1 = y1.max(y);
-        }
-        if x0 > x1 {
-            (x0, x1, y0, y1) = (-1.0, 1.0, -1.0, 1.0);
-        }
-        // Equal scales on both axes.
-        let (w, h) = (1400u32, 1200u32);
-        let (cx, cy) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
-        let half = ((x1 - x0) / 2.0).max((y1 - y0) / 2.0 * f64::from(w - 100) / f64::from(h - 100));
-        let half = half.max(1.0) * 1.05;
-        let half_y = half * f64::from(h - 100) / f64::from(w - 100);
-        let root = BitMapBackend::new(path, (w, h)).into_drawing_area();
-        root.fill(&WHITE)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(
-                format!(
-                    "{title}: {} scans, chained consecutive estimates",
-                    self.steps.len()
-                ),
-                (FONT, 24),
-            )
-            .margin(15)
-            .x_label_area_size(45)
-            .y_label_area_size(60)
-            .build_cartesian_2d(cx - half..cx + half, cy - half_y..cy + half_y)?;
-        chart
-            .configure_mesh()
-            .x_desc("x (m)")
-            .y_desc("y (m)")
-            .light_line_style(WHITE)
-            .label_style((FONT, 16))
-            .draw()?;
-        let grey = RGBColor(150, 150, 150);
-        let (xr, yr) = (cx - half..cx + half, cy - half_y..cy + half_y);
-        chart.draw_series(
-            self.points
-                .iter()
-                .filter(|p| xr.contains(&p.0) && yr.contains(&p.1))
-                .map(|&p| Circle::new(p, 1, grey.mix(0.35).filled())),
-        )?;
-        let c1 = RGBColor(31, 119, 180);
-        let odom_colour = RGBColor(255, 127, 14);
-        let truth_colour = RGBColor(44, 160, 44);
-        if !log.is_empty() {
-            chart
-                .draw_series(LineSeries::new(log, truth_colour.stroke_width(6)))?
-                .label("log poses (corrected)")
-                .legend(move |(x, y)| {
-                    PathElement::new([(x, y), (x + 20, y)], truth_colour.stroke_width(6))
-                });
-        }
-        if !odom.is_empty() {
-            chart
-                .draw_series(LineSeries::new(odom, odom_colour.stroke_width(2)))?
-                .label("odometry")
-                .legend(move |(x, y)| {
-                    PathElement::new([(x, y), (x + 20, y)], odom_colour.stroke_width(2))
-                });
-        }
-        chart
-            .draw_series(LineSeries::new(estimated, c1.stroke_width(2)))?
-            .label("estimates, chained")
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c1.stroke_width(2)));
-        chart
-            .configure_series_labels()
-            .label_font((FONT, 18))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperLeft)
-            .draw()?;
-        root.present()?;
-        Ok(())
+    /// The scans' points in the world (thinned evenly), for a figure.
+    pub fn points(&self) -> &[(f64, f64)] {
+        &self.points
     }
 }

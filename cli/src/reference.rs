@@ -8,13 +8,14 @@ use std::path::PathBuf;
 use clap::Args;
 use hough_heading::stages::SCAN_REFERENCE_FORMAT;
 
-use crate::engine::{engine, View, CONFIGURATIONS};
-use crate::scans::PairRecord;
-use crate::{BeamArgs, Fatal, ScanGridArgs};
+use hough_heading_recordings::engine::{engine, View, CONFIGURATIONS};
+use hough_heading_recordings::options::{BeamArgs, ScanGridArgs};
+use hough_heading_recordings::pairs::PairRecord;
+use hough_heading_recordings::Fatal;
 
 /// `reference --scans PAIRS.jsonl --out FILE`.
 #[derive(Clone, Debug, Args)]
-pub struct StoredArgs {
+pub struct ReferenceArgs {
     /// Pair file (format of ../shared/data/README.md) holding the scan.
     #[arg(long, value_name = "PAIRS.jsonl")]
     pub scans: PathBuf,
@@ -44,7 +45,7 @@ pub struct StoredArgs {
 /// # Errors
 /// An unknown configuration, an unreadable pair file, a missing line, a
 /// scan without beams or an unusable cell size, an unwritable output.
-pub fn run(args: &StoredArgs) -> Result<(), Fatal> {
+pub fn run(args: &ReferenceArgs) -> Result<(), Fatal> {
     let size = args.grid.size;
     let mut engine = engine(size, args.n_theta).ok_or_else(|| {
         Fatal::usage(format!(

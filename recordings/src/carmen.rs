@@ -30,8 +30,9 @@
 use std::f64::consts::PI;
 use std::io::BufRead;
 
-use super::{Event, LogScan, Pose, RecordError};
-use crate::scans::ScanRecord;
+use crate::error::RecordError;
+use crate::model::{wrap_rad, Event, Odometry, Pose, Scan};
+use crate::pairs::ScanRecord;
 
 /// How `FLASER` lines become scans (they carry no geometry).
 #[derive(Clone, Copy, Debug)]
@@ -188,10 +189,10 @@ fn parse_line(text: &str, geometry: &FlaserGeometry) -> Result<Option<Event>, St
         "ROBOTLASER1" => robotlaser1(&line).map(Some),
         "ODOM" => {
             line.need(6, "x y θ tv rv accel")?;
-            Ok(Some(Event::Odometry {
+            Ok(Some(Event::Odometry(Odometry {
                 time: line.time(6),
                 pose: line.pose(0, "odometry")?,
-            }))
+            })))
         }
         _ => Ok(None),
     }
@@ -210,7 +211,7 @@ fn flaser(line: &Fields<'_>, geometry: &FlaserGeometry) -> Result<Event, String>
     let ranges = line.ranges(1, n)?;
     let pose = line.pose(n + 1, "pose")?;
     let odom = line.pose(n + 4, "odometry")?;
-    Ok(Event::Scan(LogScan {
+    Ok(Event::Scan(Scan {
         record: ScanRecord {
             ranges,
             angle_min: (-PI / 2.0) as f32,
@@ -255,9 +256,9 @@ fn robotlaser1(line: &Fields<'_>) -> Result<Event, String> {
     let offset = [
         (c * ex + s * ey) as f32,
         (-s * ex + c * ey) as f32,
-        super::wrap_rad(laser.theta - robot.theta) as f32,
+        wrap_rad(laser.theta - robot.theta) as f32,
     ];
-    Ok(Event::Scan(LogScan {
+    Ok(Event::Scan(Scan {
         record: ScanRecord {
             ranges,
             angle_min: start as f32,

@@ -3,11 +3,11 @@
 //! `nav_msgs/msg/Odometry` as the odometry.
 //!
 //! A bag is a directory holding `metadata.yaml` and one or more `.db3` files
-//! (a split bag, its files in order: [`super::bagdir`]), or one `.db3` file
+//! (a split bag, its files in order: [`crate::bagdir`]), or one `.db3` file
 //! given by itself. In each file, the `messages` of the two topics are read
 //! in time order (then by row id), a page of rows at a time, so memory holds
 //! one page. The files are opened read-only. Payloads are CDR, decoded as for MCAP bags
-//! ([`super::ros2`]); a message's time is its header stamp (the bag's
+//! ([`crate::ros2`]); a message's time is its header stamp (the bag's
 //! receive time when the stamp is zero).
 
 use std::collections::{BTreeMap, VecDeque};
@@ -15,12 +15,11 @@ use std::path::{Path, PathBuf};
 
 use rusqlite::{Connection, OpenFlags};
 
-use super::ros2::{
+use crate::error::{Fatal, RecordError};
+use crate::ros2::{
     decode_odometry, decode_scan, odometry_item, scan_item, BagItem, TopicInfo, LASER_SCAN,
     ODOMETRY,
 };
-use super::RecordError;
-use crate::Fatal;
 
 /// The first bytes of an SQLite database.
 pub const MAGIC: &[u8] = b"SQLite format 3\0";

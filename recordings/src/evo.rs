@@ -30,10 +30,10 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use super::trajectory::{Step, Trajectory};
-use super::{wrap_rad, Pose};
+use crate::error::Fatal;
+use crate::model::{wrap_rad, Pose};
 use crate::stats::{markdown_header, markdown_row};
-use crate::Fatal;
+use crate::trajectory::{Step, Trajectory};
 
 /// The file format of `--trajectory`, by the file's extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

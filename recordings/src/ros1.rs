@@ -18,7 +18,7 @@
 //! Payloads use the ROS 1 serialization (little-endian; strings and arrays
 //! a u32 length, then the items), decoded by hand with every length checked
 //! against the message. Ranges follow REP 117 as for ROS 2 bags
-//! ([`super::ros2`]). A scan's time is its header stamp (the record time
+//! ([`crate::ros2`]). A scan's time is its header stamp (the record time
 //! when the stamp is zero); its odometry the last odometry message before
 //! it in the file. The laser's offset on the robot is `--laser-offset`
 //! (`/tf` is not read).
@@ -26,11 +26,11 @@
 use std::collections::{BTreeMap, HashMap};
 use std::io::Read;
 
-use super::ros2::{
+use crate::error::{Fatal, RecordError};
+use crate::model::{Pose, Scan};
+use crate::ros2::{
     odometry_item, odometry_pose, scan_item, scan_of, BagItem, LaserFields, TopicInfo,
 };
-use super::{Pose, RecordError};
-use crate::Fatal;
 
 /// The first bytes of a ROS 1 bag.
 pub const MAGIC: &[u8] = b"#ROSBAG V2.0\n";
@@ -418,7 +418,7 @@ fn scan_head(p: &mut Payload<'_>) -> Result<LaserFields, String> {
     })
 }
 
-fn decode_scan(data: &[u8]) -> Result<(super::LogScan, f64), String> {
+fn decode_scan(data: &[u8]) -> Result<(Scan, f64), String> {
     let mut p = Payload { data };
     let head = scan_head(&mut p)?;
     // `intensities` follows the ranges; not read.
@@ -430,7 +430,7 @@ fn decode_scan(data: &[u8]) -> Result<(super::LogScan, f64), String> {
 
 /// A `MultiEchoLaserScan`: each beam's first echo is its range (a beam
 /// without echoes has no reading).
-fn decode_multi_echo(data: &[u8]) -> Result<(super::LogScan, f64), String> {
+fn decode_multi_echo(data: &[u8]) -> Result<(Scan, f64), String> {
     let mut p = Payload { data };
     let head = scan_head(&mut p)?;
     let beams = p.u32()? as usize;
@@ -563,11 +563,11 @@ impl<R: Read> Iterator for BagReader<R> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{damaged, xorshift};
     use super::*;
+    use crate::open::{damaged, xorshift};
 
-    const BAG: &[u8] = include_bytes!("../../data/logs/seattle-bag.bag");
-    const LZ4: &[u8] = include_bytes!("../../data/logs/seattle-bag-lz4.bag");
+    const BAG: &[u8] = include_bytes!("../../cli/data/logs/seattle-bag.bag");
+    const LZ4: &[u8] = include_bytes!("../../cli/data/logs/seattle-bag-lz4.bag");
 
     fn payloads(bag: &[u8], topic: &str) -> Vec<Vec<u8>> {
         Messages::new(bag)

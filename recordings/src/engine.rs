@@ -11,7 +11,7 @@ use hough_heading::{
     Thresholds,
 };
 
-use crate::images::Image;
+use crate::image::Image;
 
 /// Which of the two views of a pair.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -325,17 +325,28 @@ macro_rules! configurations {
     };
 }
 
-configurations!(
-    (64, 180),
-    (64, 360),
-    (64, 720),
-    (128, 180),
-    (128, 360),
-    (128, 720),
-    (256, 180),
-    (256, 360),
-    (256, 720),
-);
+/// Calls the macro `$m` with every compiled configuration, `(grid side,
+/// N_THETA)` pairs of literals: the one list of them, for this crate's
+/// [`engine`] and [`CONFIGURATIONS`] and for the Python package's typed
+/// references.
+#[macro_export]
+macro_rules! with_configurations {
+    ($m:ident) => {
+        $m!(
+            (64, 180),
+            (64, 360),
+            (64, 720),
+            (128, 180),
+            (128, 360),
+            (128, 720),
+            (256, 180),
+            (256, 360),
+            (256, 720),
+        );
+    };
+}
+
+with_configurations!(configurations);
 
 /// The grid sides compiled in, ascending.
 pub fn sizes() -> Vec<usize> {

@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::Fatal;
+use crate::error::Fatal;
 
 /// How a bag directory stores its messages.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

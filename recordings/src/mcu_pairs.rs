@@ -1,6 +1,7 @@
 //! The scan-pair file of the real-scan firmware (`examples/real_scans.rs`),
 //! and its result lines. Shared, source for source, by the firmware and the
-//! host tool (`cli/src/mcu.rs` includes this file), so that both
+//! host (the recordings crate's module `mcu_pairs`, which `hough-heading mcu`
+//! uses), so that both
 //! ends decode the ranges and print the estimates with the same code.
 //!
 //! # Pair file, version 1 (`hough-heading mcu export`)
