@@ -9,10 +9,12 @@
 //! `../shared/data` is there, the first pairs of the 180- and 181-beam
 //! files (1°; skipped without the data unless `CI` is set).
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::Path;
 
 use serde_json::{json, Value};
+
+mod common;
+use common::{json_lines, scratch_file, stderr, tool};
 
 /// Largest difference accepted, degrees. Measured: 0.011° at most on the
 /// 0.5° Seattle scans; on the 1° scans 0.14° at most (aces pair 14,
@@ -111,31 +113,16 @@ fn turned_start(scan: &Value) -> Value {
     with(scan, r, min + std::f64::consts::TAU, inc)
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("scan-geometry");
-    std::fs::create_dir_all(&dir).expect("scratch dir");
-    dir.join(name)
-}
-
 /// `scans` on `pairs`: (dθ degrees, status) per pair.
 fn estimates(name: &str, pairs: &[Value]) -> Vec<(f64, String)> {
-    let path = scratch(name);
+    let path = scratch_file("scan-geometry", name);
     let text: Vec<String> = pairs.iter().map(Value::to_string).collect();
     std::fs::write(&path, text.join("\n") + "\n").expect("write pairs");
-    let out = Command::new(env!("CARGO_BIN_EXE_hough-heading"))
-        .args(["scans", "-q", "--jobs", "2"])
-        .arg(&path)
-        .output()
-        .expect("the tool runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .map(|l| {
-            let v: Value = serde_json::from_str(l).expect("a JSON line");
+    let out = tool(&["scans", "-q", "--jobs", "2", &path.display().to_string()]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    json_lines(&out)
+        .iter()
+        .map(|v| {
             let d = v["dtheta_deg"].as_f64().expect("an estimate");
             (d, v["status"].as_str().unwrap_or("").to_owned())
         })

@@ -5,36 +5,18 @@
 //! `../shared/data/logs` is there, on the whole shared logs (skipped
 //! without them unless `CI` is set). Truth: the logs' corrected poses.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::Path;
 
 use serde_json::Value;
 
-fn logs() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/logs")
-}
+mod common;
+use common::{json_lines, log_path as data, stderr, tool};
 
-fn data(name: &str) -> String {
-    logs().join(name).display().to_string()
-}
-
+/// `log -q ARGS`: its lines (exit status 0 checked).
 fn log(args: &[&str]) -> Vec<Value> {
-    let o = Command::new(env!("CARGO_BIN_EXE_hough-heading"))
-        .arg("log")
-        .arg("-q")
-        .args(args)
-        .output()
-        .expect("the tool runs");
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("a JSON line"))
-        .collect()
+    let o = tool(&[&["log", "-q"], args].concat());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    json_lines(&o)
 }
 
 fn f(v: &Value) -> f64 {
