@@ -374,9 +374,13 @@ mod tests {
             let (ax, ay, at) = (
                 next() * 20.0 - 10.0,
                 next() * 20.0 - 10.0,
-                next() * 6.28 - 3.14,
+                (next() - 0.5) * core::f64::consts::TAU,
             );
-            let (bx, by, bt) = (next() * 4.0 - 2.0, next() * 4.0 - 2.0, next() * 6.28 - 3.14);
+            let (bx, by, bt) = (
+                next() * 4.0 - 2.0,
+                next() * 4.0 - 2.0,
+                (next() - 0.5) * core::f64::consts::TAU,
+            );
             let pose = |x: f64, y: f64, t: f64| RobotPose {
                 x: x as f32,
                 y: y as f32,
