@@ -549,8 +549,11 @@ fn a_half_turn_that_only_brings_more_end_points_into_view_does_not_replace_the_a
             assert_eq!(judged.alpha, half_alpha);
         },
     );
-    // A sensor that sees the whole circle has every end point in view: the
-    // condition is the plain score's, and the half turn no longer fits.
+    // A sensor that sees the whole circle has nearly every end point in
+    // view (in view: a return of the other sensor on one of the two beams
+    // around the bearing; the corridor's far ends, beyond 30 m, return
+    // nothing): the condition is nearly the plain score's, and the half turn
+    // no longer fits.
     let all_round = Laser::centred(359.0, 360, 30.0);
     let (first, second) = (
         all_round.scan(&corridor(), from),
@@ -566,7 +569,7 @@ fn a_half_turn_that_only_brings_more_end_points_into_view_does_not_replace_the_a
                 t,
             )
             .unwrap();
-        assert_eq!(got.in_view, Score::ONE, "{turn}");
+        assert!(got.in_view > Score::from_num(0.95), "{turn}: {got:?}");
         assert_eq!(
             turn == 0.0,
             got.score() > Score::from_num(0.9),
