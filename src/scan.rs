@@ -51,10 +51,12 @@
 //! Everything here is `no_std`, allocation-free and panic-free: bad readings
 //! are dropped and counted in [`ScanStats`], never an error.
 
+mod agree;
 mod beam;
 mod free;
 mod judge;
 mod refine;
+mod segments;
 pub(crate) mod sine;
 
 pub use beam::{BeamEnd, ScanBeams, BEAM_FAR_CELLS, BEAM_MAX_MISSING, BEAM_NEAR_CELLS};
