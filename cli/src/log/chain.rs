@@ -20,6 +20,10 @@ pub struct Chain {
     odometry: KeyframeOdometry,
     /// The current keyframe (keyframe pairs) or the last scan.
     pub keyframe: Option<Kept>,
+    /// The keyframe's pose in `f64`: the chain's poses are composed here
+    /// from the estimates' own `f64` motions (the library's `f32` pose
+    /// decides, and serves only for the prediction).
+    keyframe_pose: Pose,
 }
 
 /// What the chain made of one pair, as the output line reports it.
@@ -68,6 +72,7 @@ impl Chain {
         Self {
             odometry: KeyframeOdometry::new(settings),
             keyframe: None,
+            keyframe_pose: Pose::ZERO,
         }
     }
 
@@ -75,6 +80,7 @@ impl Chain {
     pub fn start(&mut self, first: &Kept) {
         self.odometry.start();
         self.keyframe = Some(first.clone());
+        self.keyframe_pose = Pose::ZERO;
     }
 
     /// The prior to estimate the next scan again with, when its `estimate`
@@ -98,22 +104,41 @@ impl Chain {
     ) -> (ChainLine, Pose) {
         // Along a corridor the odometry's translation (as the trajectory of
         // the pairs alone takes it).
-        let motion = estimate.map(|e| Motion {
-            dtheta: e.dtheta_deg.to_radians() as f32,
-            translation: fused_delta(e, odom).map(|(d, _)| (d.x as f32, d.y as f32)),
+        let delta = estimate.map(|e| {
+            let (x, y) = fused_delta(e, odom).map_or((0.0, 0.0), |(d, _)| (d.x, d.y));
+            Pose {
+                x,
+                y,
+                theta: e.dtheta_deg.to_radians(),
+            }
         });
+        let motion = delta.map(|d| Motion {
+            dtheta: d.theta as f32,
+            translation: Some((d.x as f32, d.y as f32)),
+        });
+        let keyframe = self.odometry.keyframe();
         let step = self.odometry.update(
             estimate.zip(motion.as_ref()).map(|(e, m)| (&e.estimate, m)),
             prior.is_some(),
         );
+        // The estimate's own motion when the chain took it, else the
+        // library's step (the prediction).
+        let delta = match (step.source, delta) {
+            (StepSource::Estimate | StepSource::Prior | StepSource::Flagged, Some(d)) => d,
+            _ => {
+                let r = keyframe.between(&step.pose);
+                Pose {
+                    x: f64::from(r.x),
+                    y: f64::from(r.y),
+                    theta: f64::from(r.heading.to_degrees()).to_radians(),
+                }
+            }
+        };
+        let pose = self.keyframe_pose.compose(&delta);
         if step.new_keyframe {
             self.keyframe = Some(scan.clone());
+            self.keyframe_pose = pose;
         }
-        let pose = Pose {
-            x: f64::from(step.pose.x),
-            y: f64::from(step.pose.y),
-            theta: f64::from(step.pose.heading.to_degrees()).to_radians(),
-        };
         let line = ChainLine {
             source: source_name(step.source),
             keyframe: step.new_keyframe,
