@@ -37,12 +37,15 @@ cargo test --manifest-path tools/Cargo.toml --target-dir target/tools
 budgets=target/tools/debug/budgets
 target_dir="${CARGO_TARGET_DIR:-target}"
 
+# `-p hough-heading`: the firmware's features only (the host crates of the
+# workspace, selected by default, would switch on `std` features of shared
+# dependencies such as byteorder).
 section "clippy on the firmware examples (thumbv7em-none-eabihf)"
-cargo clippy --release --examples --target thumbv7em-none-eabihf -- -D warnings
+cargo clippy --release -p hough-heading --examples --target thumbv7em-none-eabihf -- -D warnings
 
 for target in "${ARM_TARGETS[@]}"; do
     section "examples on $target (QEMU ${MACHINES[$target]})"
-    cargo build --release --examples --target "$target"
+    cargo build --release -p hough-heading --examples --target "$target"
     for example in "${EXAMPLES[@]}"; do
         echo "--- $example"
         "$budgets" run --machine "${MACHINES[$target]}" --timeout 30 \
@@ -84,7 +87,7 @@ section "keyframe odometry on the Cortex-M4F"
     "$target_dir/thumbv7em-none-eabihf/release/examples/keyframe_odometry"
 
 section "examples build for riscv32imac-unknown-none-elf"
-cargo build --release --examples --target riscv32imac-unknown-none-elf
+cargo build --release -p hough-heading --examples --target riscv32imac-unknown-none-elf
 
 section "budgets"
 bash tools/budgets.sh $budget_mode

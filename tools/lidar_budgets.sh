@@ -24,7 +24,7 @@ mkdir -p "$out"
 # target:machine:stack_hi
 for spec in thumbv7em-none-eabihf:mps2-an386:0x20400000 thumbv6m-none-eabi:microbit:0x20004000; do
     IFS=: read -r target machine stack_hi <<<"$spec"
-    cargo build --quiet --release --example lidar_bench --target "$target"
+    cargo build --quiet --release -p hough-heading --example lidar_bench --target "$target"
     elf="$target_dir/$target/release/examples/lidar_bench"
     target/tools/debug/budgets run --machine "$machine" --timeout 60 "$elf" >"$out/$target.log"
     start=$(llvm-nm "$elf" | awk '/hh_bench_start/ && !f {print "0x"$1; f = 1}')

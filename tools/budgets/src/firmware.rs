@@ -114,6 +114,10 @@ pub fn build_example(
             "build",
             "-q",
             "--release",
+            // The firmware's features only: the workspace's host crates
+            // would switch on `std` features of shared dependencies.
+            "-p",
+            "hough-heading",
             "--example",
             example,
             "--message-format=json",
