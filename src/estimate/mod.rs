@@ -7,6 +7,7 @@
 //! [`answer`].
 
 mod answer;
+mod seed;
 mod verify;
 
 pub use answer::{Candidate, Estimate, Prior, Status, Thresholds, MAX_CANDIDATES};

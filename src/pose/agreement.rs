@@ -27,7 +27,7 @@
 use crate::angle::Angle;
 use crate::config::icp_points;
 use crate::grid::Grid;
-use crate::pose::search::{
+use crate::pose::points::{
     centred_q1, point_score, rotate_inverse_q16, sampled_cells, scaled, to_cell_q16,
 };
 use crate::scan::FreeSpace;

@@ -4,8 +4,9 @@
 use crate::angle::Angle;
 use crate::config::icp_points;
 use crate::grid::Grid;
+use crate::pose::points::{centred_q1, rotate_inverse_q16, sampled_cells, scaled};
 use crate::pose::pyramid::grid_bits;
-use crate::pose::search::{centred_q1, rotate_inverse_q16, sampled_cells, scaled, Placement};
+use crate::pose::search::Placement;
 use crate::trig::sin_cos_q15;
 
 /// ICP of up to [`icp_points`] view cells onto the reference's occupied

@@ -13,7 +13,9 @@
 //!   views' free space: the decision between candidates.
 
 pub(crate) mod agreement;
+mod bound;
 pub(crate) mod icp;
+pub(crate) mod points;
 pub(crate) mod pyramid;
 pub(crate) mod reach;
 pub(crate) mod scale;

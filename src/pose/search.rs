@@ -21,8 +21,10 @@
 use crate::angle::Angle;
 use crate::config::{align_points, ALIGN_POINTS};
 use crate::grid::Grid;
-use crate::math::sort_descending;
-use crate::pose::pyramid::{all_in_columns, any_in_columns, bits, grid_bits, Pyramid};
+use crate::pose::points::{
+    centred_q1, clamp_i16, point_score, rotate_inverse_q16, sampled_cells, scaled, to_cell_q16,
+};
+use crate::pose::pyramid::{all_in_columns, any_in_columns, bits, Pyramid};
 use crate::pose::reach::{ReachTables, EXACT_LEVELS};
 use crate::trig::sin_cos_q15;
 
@@ -44,27 +46,27 @@ pub(crate) struct Placement {
 
 /// Scores poses of image 2's occupied cells against a reference grid.
 pub(crate) struct Aligner<'a, const W: usize, const H: usize, const RW: usize, const PW: usize> {
-    reference: &'a Grid<W, H, RW>,
-    pyramid: &'a Pyramid<W, H, PW>,
+    pub(super) reference: &'a Grid<W, H, RW>,
+    pub(super) pyramid: &'a Pyramid<W, H, PW>,
     /// The reference's reach tables, when it keeps them (read only with
     /// the feature `reach-tables`).
     #[cfg_attr(not(feature = "reach-tables"), allow(dead_code))]
-    reach: Option<&'a ReachTables<W, H, RW>>,
-    view: &'a Grid<W, H, RW>,
+    pub(super) reach: Option<&'a ReachTables<W, H, RW>>,
+    pub(super) view: &'a Grid<W, H, RW>,
     /// The reference's free space (scans) and what a point scoring 0 on it
     /// costs, score units.
-    free: Option<(&'a Grid<W, H, RW>, u32)>,
+    pub(super) free: Option<(&'a Grid<W, H, RW>, u32)>,
     /// Centroid of the sampled view points, centred coordinates × 2.
-    centroid_q1: (i32, i32),
+    pub(super) centroid_q1: (i32, i32),
     /// `1/s` (Q16): view points are shrunk by it before the pose.
-    inv_scale_q16: i64,
+    pub(super) inv_scale_q16: i64,
     /// View points turned by the current rotation, reference cells.
-    cells: [Cell; ALIGN_POINTS],
-    count: usize,
+    pub(super) cells: [Cell; ALIGN_POINTS],
+    pub(super) count: usize,
     /// Grid rows (per sampled point) the searches may still read.
-    budget: core::cell::Cell<u32>,
+    pub(super) budget: core::cell::Cell<u32>,
     /// A search stopped because the budget ran out.
-    cut: core::cell::Cell<bool>,
+    pub(super) cut: core::cell::Cell<bool>,
 }
 
 impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
@@ -125,7 +127,7 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
     /// Takes the work of one evaluation at pyramid level `k` (0: a score)
     /// from the budget ([`Self::cost`]); `false` (and the search marked cut)
     /// when the budget cannot cover it. A budget of `u32::MAX` is none.
-    fn spend(&self, k: usize) -> bool {
+    pub(super) fn spend(&self, k: usize) -> bool {
         let budget = self.budget.get();
         if budget == u32::MAX {
             return true;
@@ -149,7 +151,7 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
     /// rows of the reference and, with free space, `2ᵏ` of its free grid; a
     /// pyramid bound at most 3 rows of its level. At most 34 rows a point,
     /// `34 · ALIGN_POINTS` an evaluation: no overflow in `u32`.
-    fn cost(&self, k: usize) -> u32 {
+    pub(super) fn cost(&self, k: usize) -> u32 {
         let with_free = u32::from(self.free.is_some());
         let rows = match k {
             0 => 3 + with_free,
@@ -213,7 +215,7 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
     /// [`Self::score`] if it exceeds `floor`, else 0 (stops as soon as the
     /// points left cannot lift it above `floor`). With `floor` 0 it is the
     /// score itself (less the free-space penalties, at least 0).
-    fn score_above(&self, shift: (i32, i32), floor: u32) -> u32 {
+    pub(super) fn score_above(&self, shift: (i32, i32), floor: u32) -> u32 {
         let mut reachable = 2 * self.points();
         let mut total = 0u32;
         let mut penalties = 0u32;
@@ -250,7 +252,7 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
             .count() as u32
     }
 
-    fn turned(&self) -> &[Cell] {
+    pub(super) fn turned(&self) -> &[Cell] {
         self.cells.get(..self.count).unwrap_or(&[])
     }
 
@@ -264,7 +266,7 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
     /// block also costs its penalty: it scores 0 and violates at each of them.
     ///
     /// Returns 0 as soon as the bound cannot exceed `floor`.
-    fn bound(&self, k: usize, c0: i32, r0: i32, floor: u32) -> u32 {
+    pub(super) fn bound(&self, k: usize, c0: i32, r0: i32, floor: u32) -> u32 {
         match self.free.filter(|_| k <= EXACT_LEVELS) {
             Some((free, penalty)) => self.bound_with_free(k, c0, r0, floor, free, penalty),
             None => self.bound_occupied(k, c0, r0, floor),
@@ -272,7 +274,7 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
     }
 
     /// [`Self::bound`] without free space.
-    fn bound_occupied(&self, k: usize, c0: i32, r0: i32, floor: u32) -> u32 {
+    pub(super) fn bound_occupied(&self, k: usize, c0: i32, r0: i32, floor: u32) -> u32 {
         // 2·hits > floor ⟺ hits ≥ floor/2 + 1: at most this many may miss.
         let Some(allowed) = self.points().checked_sub(floor / 2 + 1) else {
             return 0;
@@ -291,7 +293,7 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
 
     /// [`Self::bound`] with the reference's free space, levels
     /// `1..=`[`EXACT_LEVELS`].
-    fn bound_with_free(
+    pub(super) fn bound_with_free(
         &self,
         k: usize,
         c0: i32,
@@ -333,7 +335,7 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
     /// (`2ᵏ + 2` rows a point); above, on the pyramid (2–3 cells of `2ᵏ`
     /// per axis: looser, but few blocks are that large).
     #[inline(always)]
-    fn reaches(&self, k: usize, c0: i32, r0: i32, (c, r): Cell) -> bool {
+    pub(super) fn reaches(&self, k: usize, c0: i32, r0: i32, (c, r): Cell) -> bool {
         let side = 1i32 << k;
         let (a, b) = (i32::from(c) + c0 - 1, i32::from(r) + r0 - 1);
         if k <= EXACT_LEVELS {
@@ -356,206 +358,6 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
             (lo_r..=hi_r).any(|row| bits(self.pyramid.row(k, row), lo_c, n) != 0)
         }
     }
-
-    /// The best integer shift within `[centre − radius, centre + radius]` in
-    /// both axes whose score beats `floor`, by branch and bound; `None` if
-    /// none beats it. Ties keep the first found (blocks with the higher
-    /// bound first). Each bound and score spends the grid rows it may read
-    /// from the work budget ([`Self::with_budget`], [`Self::cost`]); when it
-    /// runs out the search returns
-    /// the best found so far and [`Self::cut`] is set. The radius is
-    /// clamped to `2^(L+1)` cells (`L` the pyramid's levels: at least half
-    /// the grid's larger side; the default window, ¼ of the ρ range, is
-    /// that), so that at most 5 × 5 top blocks cover the window.
-    pub(crate) fn search(
-        &self,
-        centre: (i32, i32),
-        radius: i32,
-        floor: u32,
-    ) -> Option<((i32, i32), u32)> {
-        // At most 5 × 5 top blocks of the largest pyramid level.
-        let radius = radius.clamp(0, 2 << Pyramid::<W, H, PW>::LEVELS);
-        let span = 2 * radius + 1;
-        // Top level: blocks at most a quarter of the window, within the pyramid.
-        let mut top = 0usize;
-        while top < Pyramid::<W, H, PW>::LEVELS && (4i32 << top) < span {
-            top += 1;
-        }
-        let side = 1i32 << top;
-        let blocks = (span + side - 1) / side;
-        let origin = (centre.0 - radius, centre.1 - radius);
-        // Blocks are kept compact (8 bytes) relative to the origin: the
-        // frames of the search are on the deepest stack path.
-        let at = |b: &Block| (origin.0 + i32::from(b.col), origin.1 + i32::from(b.row));
-        let mut tops: heapless::Vec<Block, TOP_BLOCKS> = heapless::Vec::new();
-        for i in 0..blocks {
-            for j in 0..blocks {
-                let (col, row) = (j * side, i * side);
-                let (c0, r0) = (origin.0 + col, origin.1 + row);
-                if !self.spend(top) {
-                    return None;
-                }
-                let b = if top == 0 {
-                    self.score_above((c0, r0), floor)
-                } else {
-                    self.bound(top, c0, r0, floor)
-                };
-                if b > floor {
-                    let _ = tops.push(Block::new(b, top, col, row));
-                }
-            }
-        }
-        let mut best: Option<((i32, i32), u32)> = None;
-        let mut floor = floor;
-        let last = span - 1;
-        // Highest bound first.
-        sort_descending(&mut tops, |t| u32::from(t.bound));
-        let mut stack: heapless::Vec<Block, STACK> = heapless::Vec::new();
-        for &block in &tops {
-            if u32::from(block.bound) <= floor {
-                break;
-            }
-            let _ = stack.push(block);
-            while let Some(block) = stack.pop() {
-                let (b, k) = (u32::from(block.bound), usize::from(block.level));
-                if b <= floor || i32::from(block.col) > last || i32::from(block.row) > last {
-                    continue;
-                }
-                if k == 0 {
-                    // At level 0 the bound is the score.
-                    floor = b;
-                    best = Some((at(&block), b));
-                    continue;
-                }
-                let half = 1i32 << (k - 1);
-                let mut children = [Block::new(0, 0, 0, 0); 4];
-                for (n, child) in children.iter_mut().enumerate() {
-                    let col = i32::from(block.col) + half * (n as i32 & 1);
-                    let row = i32::from(block.row) + half * (n as i32 >> 1);
-                    let (c, r) = (origin.0 + col, origin.1 + row);
-                    let cb = if col > last || row > last {
-                        0
-                    } else if !self.spend(k - 1) {
-                        return best;
-                    } else if k == 1 {
-                        self.score_above((c, r), floor)
-                    } else {
-                        self.bound(k - 1, c, r, floor)
-                    };
-                    *child = Block::new(cb, k - 1, col, row);
-                }
-                // Push the lowest first so the highest is explored first.
-                children.sort_unstable_by_key(|c| c.bound);
-                for child in children {
-                    if u32::from(child.bound) > floor {
-                        let _ = stack.push(child);
-                    }
-                }
-            }
-        }
-        best
-    }
-}
-
-/// A block of shifts of the search: `2^level` square from `(col, row)`
-/// cells past the window's origin, with its bound (scores ≤ 2 ×
-/// [`ALIGN_POINTS`] fit 16 bits; offsets ≤ 8 · 2¹¹).
-#[derive(Clone, Copy)]
-struct Block {
-    bound: u16,
-    level: u8,
-    col: u16,
-    row: u16,
-}
-
-impl Block {
-    fn new(bound: u32, level: usize, col: i32, row: i32) -> Self {
-        Self {
-            bound: bound.min(u32::from(u16::MAX)) as u16,
-            level: level as u8,
-            col: col.clamp(0, i32::from(u16::MAX)) as u16,
-            row: row.clamp(0, i32::from(u16::MAX)) as u16,
-        }
-    }
-}
-
-/// Most top-level blocks of one search (a window of at most `4·2ᴸ + 1`
-/// cells per axis in blocks of `2^top`, `4·2^top` ≥ the window or `top = L`).
-const TOP_BLOCKS: usize = 25;
-/// Depth-first stack: 4 children per level, 12 levels at most (W ≤ 2048).
-const STACK: usize = 48;
-
-/// Score of reference cell `(c, r)`: 2 occupied, 1 a neighbour occupied, else 0.
-pub(crate) fn point_score<const W: usize, const H: usize, const RW: usize>(
-    grid: &Grid<W, H, RW>,
-    c: i32,
-    r: i32,
-) -> u32 {
-    let row = |r: i32| grid_bits(grid, c - 1, r, 3);
-    let middle = row(r);
-    if middle & 2 != 0 {
-        2
-    } else if middle != 0 || row(r - 1) != 0 || row(r + 1) != 0 {
-        1
-    } else {
-        0
-    }
-}
-
-/// Up to `max` occupied cells `(col, row)` of `grid`, spread evenly in
-/// raster order.
-pub(crate) fn sampled_cells<const W: usize, const H: usize, const RW: usize>(
-    grid: &Grid<W, H, RW>,
-    max: usize,
-) -> impl Iterator<Item = (usize, usize)> + '_ {
-    let occupied = grid.occupied() as usize;
-    let keep = max.min(occupied);
-    // Cell i is kept when ⌊(i + 1)·keep / occupied⌋ steps up: the running
-    // remainder `(i + 1)·keep mod occupied` wraps (keep ≤ occupied, so it
-    // wraps at most once a cell), without a division a cell.
-    let mut remainder = 0usize;
-    grid.occupied_cells().filter(move |_| {
-        remainder += keep;
-        let step = remainder >= occupied;
-        if step {
-            remainder -= occupied;
-        }
-        step
-    })
-}
-
-/// Centred coordinates of cell `(col, row)` times 2 (exact integers):
-/// `2x = 2·col − (W − 1)`, `2y = (H − 1) − 2·row`.
-pub(crate) fn centred_q1<const W: usize, const H: usize>(col: usize, row: usize) -> (i32, i32) {
-    (
-        2 * col as i32 - (W as i32 - 1),
-        (H as i32 - 1) - 2 * row as i32,
-    )
-}
-
-/// `p · inv_scale` for `p` in Q16 and `inv_scale` in Q16.
-pub(crate) fn scaled((x, y): (i64, i64), inv_scale_q16: i64) -> (i64, i64) {
-    if inv_scale_q16 == 1 << 16 {
-        return (x, y);
-    }
-    ((x * inv_scale_q16) >> 16, (y * inv_scale_q16) >> 16)
-}
-
-/// `R(−α)·p` for `p` in Q1 and `(cos α, sin α)` in Q15: Q16.
-pub(crate) fn rotate_inverse_q16((cos, sin): (i32, i32), (x, y): (i32, i32)) -> (i64, i64) {
-    let (x, y, cos, sin) = (i64::from(x), i64::from(y), i64::from(cos), i64::from(sin));
-    (cos * x + sin * y, cos * y - sin * x)
-}
-
-/// The reference cell nearest the centred point `(x, y)` (Q16).
-pub(crate) fn to_cell_q16<const W: usize, const H: usize>(x: i64, y: i64) -> (i64, i64) {
-    let col = x + ((W as i64 - 1) << 15);
-    let row = ((H as i64 - 1) << 15) - y;
-    ((col + (1 << 15)) >> 16, (row + (1 << 15)) >> 16)
-}
-
-fn clamp_i16(v: i64) -> i16 {
-    v.clamp(i64::from(i16::MIN), i64::from(i16::MAX)) as i16
 }
 
 /// With the feature only: without it the aligner reads no table.
@@ -567,7 +369,7 @@ mod tests {
     const N: usize = 360;
 
     /// xorshift32.
-    fn next(state: &mut u32) -> u32 {
+    pub(super) fn next(state: &mut u32) -> u32 {
         *state ^= *state << 13;
         *state ^= *state >> 17;
         *state ^= *state << 5;
@@ -575,7 +377,7 @@ mod tests {
     }
 
     /// Random wall segments and scattered cells.
-    fn scene<const S: usize, const RW: usize>(seed: u32) -> Grid<S, S, RW> {
+    pub(super) fn scene<const S: usize, const RW: usize>(seed: u32) -> Grid<S, S, RW> {
         let mut grid = Grid::new();
         let mut state = seed;
         for _ in 0..S / 10 {
@@ -597,7 +399,7 @@ mod tests {
     /// and score, rotation by rotation, with and without free space, for
     /// every window and floor, and the same work spent. Returns how many
     /// searches found a shift.
-    fn same_searches<const S: usize, const RW: usize, const PW: usize>() -> usize {
+    pub(super) fn same_searches<const S: usize, const RW: usize, const PW: usize>() -> usize {
         let mut searches = 0;
         for seed in 1..=12u32 {
             let reference = scene::<S, RW>(seed.wrapping_mul(0x9E37_79B9));
@@ -640,7 +442,7 @@ mod tests {
     }
 
     #[test]
-    fn reach_tables_keep_every_search() {
+    pub(super) fn reach_tables_keep_every_search() {
         // 64²: the exact levels; 128²: the pyramid's top level too.
         let found = same_searches::<64, { row_words(64) }, { pyramid_words(64, 64) }>();
         assert!(

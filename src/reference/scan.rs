@@ -7,7 +7,8 @@
 //!
 //! [`Estimator::estimate_scans`]: crate::Estimator::estimate_scans
 
-use super::{check_envelope, fnv1a, le_u32, read_grid, Reference, Writer};
+use super::bytes::{fnv1a, le_u32, Writer};
+use super::{check_envelope, read_grid, Reference};
 use crate::error::Error;
 use crate::grid::Grid;
 use crate::scan::{FreeSpace, Raster, Scan, SensorOffset};
