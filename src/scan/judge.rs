@@ -53,8 +53,9 @@
 //! histogram on the stack (1.7 KiB) and at most 96 end points of each scan,
 //! in bin units (one division per end point). A rival whose best start
 //! trails the chosen pose by 0.2 or more is not refined. Cost on
-//! the Cortex-M4F (`examples/real_scans.rs`, `budgets/TABLE.md`): 8.1 M
-//! instructions a real pair (median; 30.6 M at most), about half the
+//! the Cortex-M4F (`examples/real_scans.rs`, `budgets/TABLE.md`): 8.3 M
+//! instructions a real pair (median; 33.8 M at most; 8.1 / 30.6 M before
+//! the vote's even sample of the returns, issue 39), about half the
 //! estimate, and 3.4 KiB more stack; on the host 10–15 % of a pair
 //! (fr079, 400 pairs, one thread: 1.45–1.56 s user without, 1.63–1.77 s
 //! with).
