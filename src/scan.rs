@@ -72,7 +72,7 @@ pub use refine::{
 };
 
 use crate::grid::Grid;
-use beam::{binary_angle, count_dropped};
+use beam::{binary_angle, count_dropped, missing_after};
 
 /// Pose of the sensor in the robot frame: metres, radians (x forward, y left,
 /// θ counter-clockwise).
@@ -281,11 +281,7 @@ impl Raster {
             angle = angle.wrapping_add(step);
             let BeamEnd::Near { x, y } = end else {
                 count_dropped(&mut stats, end);
-                // A return beyond every grid is a depth jump, not a hole.
-                missing = match end {
-                    BeamEnd::Far => u32::MAX,
-                    _ => missing.saturating_add(1),
-                };
+                missing = missing_after(missing, end);
                 if missing > BEAM_MAX_MISSING {
                     previous = None;
                 }

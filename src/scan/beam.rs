@@ -62,6 +62,18 @@ pub const BEAM_NEAR_CELLS: i32 = (1 << 14) + 4096;
 /// [`Raster::connect`]: super::Raster::connect
 pub const BEAM_MAX_MISSING: u32 = 1;
 
+/// The beams without a return since the last one, after `end` (not a
+/// near return): one more, or more than [`BEAM_MAX_MISSING`] at once for a
+/// return beyond every grid (a depth jump, not a hole). Shared by the
+/// raster's segments and free space, so that both see the same
+/// neighbours.
+pub(crate) fn missing_after(missing: u32, end: BeamEnd) -> u32 {
+    match end {
+        BeamEnd::Far => u32::MAX,
+        _ => missing.saturating_add(1),
+    }
+}
+
 /// Q16: one cell is `1 << 16`.
 const ONE: i32 = 1 << 16;
 /// Ranges of at least 2¹⁴ cells end outside every grid as long as the offset

@@ -22,7 +22,7 @@
 //! marks nothing, and cells are marked at steps of at most one cell along
 //! the beam, so a cell the beam only grazed may stay unmarked.
 
-use super::beam::{binary_angle, BeamEnd, ScanBeams, BEAM_MAX_MISSING};
+use super::beam::{binary_angle, missing_after, BeamEnd, ScanBeams, BEAM_MAX_MISSING};
 use super::{Raster, Scan};
 use crate::grid::Grid;
 
@@ -84,11 +84,7 @@ impl Raster {
             let end = beams.end_at(binary_angle(angle), r);
             angle = angle.wrapping_add(step);
             let BeamEnd::Near { x, y } = end else {
-                // A return beyond every grid is a depth jump, not a hole.
-                missing = match end {
-                    BeamEnd::Far => u32::MAX,
-                    _ => missing.saturating_add(1),
-                };
+                missing = missing_after(missing, end);
                 if missing > BEAM_MAX_MISSING {
                     if let Some(beam) = current.take() {
                         beam.trace(shortest(&[previous, Some(beam)]), max_steps, free);
