@@ -217,13 +217,7 @@ mod firmware {
             defmt::println!(
                 "scan {=u32} source={=str} keyframe={=bool} heading_mdeg={=i32}",
                 pair + 1,
-                match step.source {
-                    StepSource::Start => "start",
-                    StepSource::Estimate => "estimate",
-                    StepSource::Prior => "prior",
-                    StepSource::Predicted => "predicted",
-                    StepSource::Flagged => "flagged",
-                },
+                step.source.name(),
                 step.new_keyframe,
                 support::millidegrees(step.pose.heading)
             );

@@ -169,6 +169,20 @@ pub enum StepSource {
     Flagged,
 }
 
+impl StepSource {
+    /// Its name in lower case (`start`, `estimate`, `prior`, `predicted`,
+    /// `flagged`), as the tool's `chain.source` prints it.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Start => "start",
+            Self::Estimate => "estimate",
+            Self::Prior => "prior",
+            Self::Predicted => "predicted",
+            Self::Flagged => "flagged",
+        }
+    }
+}
+
 /// One scan's place in the chain ([`KeyframeOdometry::update`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -140,7 +140,7 @@ impl Chain {
             self.keyframe_pose = pose;
         }
         let line = ChainLine {
-            source: source_name(step.source),
+            source: step.source.name(),
             keyframe: step.new_keyframe,
             prior: prior.map(|p| PriorLine {
                 dtheta_deg: round(-f64::from(p.alpha.to_degrees())),
@@ -151,17 +151,6 @@ impl Chain {
             theta_deg: round(pose.theta.to_degrees()),
         };
         (line, pose)
-    }
-}
-
-/// The output name of a step's source.
-pub fn source_name(source: StepSource) -> &'static str {
-    match source {
-        StepSource::Start => "start",
-        StepSource::Estimate => "estimate",
-        StepSource::Prior => "prior",
-        StepSource::Predicted => "predicted",
-        StepSource::Flagged => "flagged",
     }
 }
 
