@@ -4,6 +4,7 @@
 #   bash tools/budgets.sh            # measure, print the table, rewrite budgets/budgets.json + budgets/TABLE.md
 #   bash tools/budgets.sh --check    # measure, print the table, fail on > 10 % growth over budgets/budgets.json
 #   bash tools/budgets.sh --only 128x128/360   # one configuration, printed only (a quick look while working)
+#   bash tools/budgets.sh --only lidar         # the lidar drivers' rows (tools/budgets/src/lidar.rs), printed only
 #
 # Where the instructions of one measured region go (after a run, which leaves
 # the bench ELFs in target/budgets/<triple>/; needs llvm-addr2line), e.g. the
@@ -17,7 +18,9 @@
 # and RV32IMAC (built only): instructions per estimate and per vote (exact
 # counts from the qemu-icount TCG plugin), estimator state and peak stack,
 # the verification by alignment's share (the estimate with and without it),
-# static RAM and the library's flash. See tools/budgets/src/main.rs.
+# static RAM and the library's flash; the real scan pairs' costs and the
+# lidar drivers' (parser and assembler per packet and per point, RAM). See
+# tools/budgets/src/main.rs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 

@@ -174,3 +174,14 @@ pub fn group(n: u64) -> String {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::group;
+
+    #[test]
+    fn groups_thousands() {
+        assert_eq!(group(1234567), "1\u{202f}234\u{202f}567");
+        assert_eq!(group(12), "12");
+    }
+}

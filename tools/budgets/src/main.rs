@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! budgets run --machine MACHINE [--timeout SECONDS] ELF
-//! budgets report [--check] [--only SIDExSIDE/N] [--root DIR] [--plugin LIB]
+//! budgets report [--check] [--only SIDExSIDE/N|real-scans/…|lidar] [--root DIR] [--plugin LIB]
 //! budgets profile --machine MACHINE [--region NAME] [--minus NAME] [--top N] [--root DIR] [--plugin LIB] ELF
 //! ```
 //!
@@ -13,11 +13,15 @@
 //!
 //! `report` builds `examples/bench.rs` for every target and configuration
 //! (and `examples/real_scans.rs`, run on the bundled real scan pairs: see
-//! `real.rs`),
+//! `real.rs`; and `examples/lidar_bench.rs`, the lidar drivers over their
+//! captures: see `lidar.rs`),
 //! runs it under QEMU with the `qemu-icount` plugin, prints the budget table
 //! and writes `budgets/budgets.json` and `budgets/TABLE.md`, and the table
 //! into `README.md` between `<!-- budgets:start -->` and
-//! `<!-- budgets:end -->` when both markers are there. With `--check` it
+//! `<!-- budgets:end -->` when both markers are there. With `--only KEY` it
+//! measures one entry (`128x128/360`, `real-scans/128x128/360`, or `lidar`
+//! for the lidar rows) and prints it, writing nothing in `budgets/` (its
+//! values go to `target/budgets/measured.json`). With `--check` it
 //! writes nothing in `budgets/` (the measurement goes to
 //! `target/budgets/measured.json`) and fails when a value grew by more than
 //! 10 % over `budgets/budgets.json` or a metric of `budgets/budgets.json` is
@@ -36,10 +40,12 @@
 
 mod elf;
 mod firmware;
+mod lidar;
 mod profile;
 mod qemu;
 mod real;
 mod report;
+mod table;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -57,7 +63,7 @@ fn main() -> ExitCode {
         Some("report") => report(&args[1..]),
         Some("profile") => profile(&args[1..]),
         _ => Err(
-            "usage: budgets run --machine M [--timeout S] ELF | budgets report [--check] [--only SIDExSIDE/N] \
+            "usage: budgets run --machine M [--timeout S] ELF | budgets report [--check] [--only SIDExSIDE/N|lidar] \
              | budgets profile --machine M [--region NAME] [--minus NAME] [--top N] ELF"
                 .into(),
         ),
@@ -134,7 +140,7 @@ fn profile(args: &[String]) -> Result<ExitCode, Error> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// `budgets report [--check] [--only SIDExSIDE/N]`.
+/// `budgets report [--check] [--only SIDExSIDE/N|real-scans/…|lidar]`.
 fn report(args: &[String]) -> Result<ExitCode, Error> {
     let check = args.iter().any(|a| a == "--check");
     let only = option(args, "--only");
@@ -154,7 +160,8 @@ fn report(args: &[String]) -> Result<ExitCode, Error> {
         "generated_by": "bash tools/budgets.sh",
         "tolerance": report::TOLERANCE,
         "units": "instructions: guest instructions counted by the qemu-icount plugin; \
-                  per vote: divided by occupied cells × N_THETA/2; bytes otherwise",
+                  per vote: divided by occupied cells × N_THETA/2; lidar per packet, per point: \
+                  divided by the capture's packets, points; bytes otherwise",
         "toolchain": command_line("rustc", &["--version"]),
         "qemu": command_line("qemu-system-arm", &["--version"]),
         "targets": measured.targets,
@@ -163,10 +170,15 @@ fn report(args: &[String]) -> Result<ExitCode, Error> {
 
     let budget_path = root.join("budgets/budgets.json");
     let mut failed = false;
-    if only.is_some() {
-        eprintln!("budgets: --only measures one configuration; nothing written or checked");
-    } else if check {
+    if only.is_some() || check {
         write(&root.join("target/budgets/measured.json"), &pretty(&body)?)?;
+    }
+    if only.is_some() {
+        eprintln!(
+            "budgets: --only measures one entry; nothing written in budgets/ or checked \
+             (its values: target/budgets/measured.json)"
+        );
+    } else if check {
         let text = std::fs::read_to_string(&budget_path)
             .map_err(|e| format!("read {}: {e}", budget_path.display()))?;
         let budget: Value = serde_json::from_str(&text)?;
@@ -297,7 +309,9 @@ fn table_page(table: &str) -> String {
          products per beam, segments between neighbours), per beam and per scan. *RAM*: `.data + .bss` plus the lowest stack \
          address written in any measured region below the top of the stack (estimator, reference, \
          one grid, the ranges while a scan is read: all on the stack).\n\
+         {lidar}\
          - Cortex-M4F runs on QEMU `mps2-an386`, Cortex-M0 on `microbit` (16 KiB RAM); RISC-V is only \
-         built (sizes). Release profile: `opt-level = 3`, LTO, one codegen unit.\n"
+         built (sizes). Release profile: `opt-level = 3`, LTO, one codegen unit.\n",
+        lidar = lidar::NOTE
     )
 }

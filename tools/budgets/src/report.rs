@@ -1,18 +1,18 @@
-//! The budget report: builds `examples/bench.rs` per target and configuration,
-//! runs it under QEMU with the `qemu-icount` plugin, and tabulates
-//! instructions, RAM, stack and flash; or checks them against the committed
+//! The budget report: builds `examples/bench.rs` per target and configuration
+//! (and the real-scan and lidar benches: `real.rs`, `lidar.rs`), runs it
+//! under QEMU with the `qemu-icount` plugin, and tabulates instructions,
+//! RAM, stack and flash (`table.rs`); or checks them against the committed
 //! budget file.
 
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use serde_json::{json, Map, Value};
 
-use crate::firmware::{build_example, group, Config, Paths, Target, TARGETS};
+use crate::firmware::{build_example, Config, Paths, Target, TARGETS};
 use crate::qemu::{self, field, number, Plugin};
-use crate::{elf, real, Error};
+use crate::{elf, lidar, real, table, Error};
 
 /// Start of RAM on both QEMU boards: a stack pointer below it after a crash
 /// means the stack overflowed the RAM.
@@ -24,7 +24,8 @@ const SIDES: [usize; 3] = [64, 128, 256];
 /// Allowed growth of any budget before `--check` fails.
 pub const TOLERANCE: f64 = 0.10;
 
-/// Budget keys `--check` compares (all "smaller is better").
+/// Budget keys `--check` compares (all "smaller is better"; with
+/// [`lidar::CHECKED`]).
 const CHECKED: [&str; 23] = [
     "instructions_estimate",
     "instructions_unverified",
@@ -339,13 +340,15 @@ fn crashed_stack_pointer(stderr: &str) -> Option<u64> {
 pub struct Measured {
     /// The budget-file body.
     pub targets: Map<String, Value>,
-    /// The Markdown tables: the budgets, then the verification's share.
+    /// The Markdown tables: the budgets, the verification's share, the real
+    /// scans and the lidar drivers (those with rows).
     pub table: String,
     /// Wrong estimates, crashes.
     pub failures: Vec<String>,
 }
 
-/// Builds and measures every target and configuration.
+/// Builds and measures every target and configuration (with `only`, the
+/// configuration, real-scan entry or [`lidar::ONLY`] named).
 pub fn measure(paths: &Paths, only: Option<&str>) -> Result<Measured, Error> {
     let configs = configs(only);
     let mut targets = Map::new();
@@ -353,11 +356,17 @@ pub fn measure(paths: &Paths, only: Option<&str>) -> Result<Measured, Error> {
     let mut rows = Vec::new();
     let mut verification_rows = Vec::new();
     let mut real_rows = Vec::new();
+    let mut lidar_rows = Vec::new();
     for target in &TARGETS {
         eprintln!("budgets: {} ({})", target.name, target.triple);
-        let baseline = elf::read(&build(paths, target, None)?)?;
+        // The firmware without the library (the library's flash), for each configuration.
+        let baseline = if configs.is_empty() {
+            None
+        } else {
+            Some(elf::read(&build(paths, target, None)?)?)
+        };
         let mut entries = Map::new();
-        for config in &configs {
+        for (config, baseline) in configs.iter().zip(baseline.iter().cycle()) {
             let path = build(paths, target, Some(config))?;
             let image = elf::read(&path)?;
             // The estimate is integer arithmetic only: no core may need the
@@ -389,9 +398,9 @@ pub fn measure(paths: &Paths, only: Option<&str>) -> Result<Measured, Error> {
                 fits = run.does_not_fit.is_none();
             }
             values.insert("fits".into(), json!(fits));
-            rows.push(row(target, config, &values));
+            rows.push(table::row(target, config, &values));
             if target.machine.is_some() {
-                verification_rows.push(verification_row(target, config, &values));
+                verification_rows.push(table::verification_row(target, config, &values));
             }
             entries.insert(config.key(), Value::Object(values));
         }
@@ -413,179 +422,39 @@ pub fn measure(paths: &Paths, only: Option<&str>) -> Result<Measured, Error> {
                 Err(failure) => failures.push(format!("{} {key}: {failure}", target.triple)),
             }
         }
+        // The lidar drivers (`examples/lidar_bench.rs`), one entry a protocol.
+        if target.machine.is_some() && only.is_none_or(|only| only == lidar::ONLY) {
+            match lidar::measure(paths, target)? {
+                Ok(measured) => {
+                    for (key, values) in measured {
+                        lidar_rows.push(lidar::row(target, &key, &values));
+                        entries.insert(key, Value::Object(values));
+                    }
+                }
+                Err(failure) => failures.push(format!("{} lidar: {failure}", target.triple)),
+            }
+        }
         targets.insert(target.triple.into(), Value::Object(entries));
     }
+    if let Some(only) = only.filter(|_| targets.values().all(|t| t == &json!({}))) {
+        return Err(format!("--only {only}: no entry of that name").into());
+    }
+    let tables = [
+        (&table::HEADER[..], rows),
+        (&table::VERIFICATION_HEADER[..], verification_rows),
+        (&real::HEADER[..], real_rows),
+        (&lidar::HEADER[..], lidar_rows),
+    ];
     Ok(Measured {
         targets,
-        table: format!(
-            "{}\n{}{}",
-            table(&HEADER, &rows),
-            table(&VERIFICATION_HEADER, &verification_rows),
-            if real_rows.is_empty() {
-                String::new()
-            } else {
-                format!("\n{}", table(&real::HEADER, &real_rows))
-            }
-        ),
+        table: tables
+            .iter()
+            .filter(|(_, rows)| !rows.is_empty())
+            .map(|(header, rows)| table::markdown(header, rows))
+            .collect::<Vec<_>>()
+            .join("\n"),
         failures,
     })
-}
-
-/// One table row.
-fn row(target: &Target, config: &Config, v: &Map<String, Value>) -> Vec<String> {
-    let int = |k: &str| v.get(k).and_then(Value::as_u64);
-    let bytes = |k: &str| int(k).map_or("–".into(), |n| format!("{n} B"));
-    let count = |k: &str| int(k).map_or("–".into(), group);
-    let ratio = |k: &str| {
-        v.get(k)
-            .and_then(Value::as_f64)
-            .map_or("–".into(), |r| format!("{r:.2}"))
-    };
-    let n = match config.choice {
-        "360" => "360".to_string(),
-        choice => format!("{} ({choice})", config.n_theta),
-    };
-    let mut cells = vec![target.name.to_string(), config.grid(), n];
-    if v.get("fits") == Some(&Value::Bool(false)) {
-        let state = int("state").unwrap_or(0);
-        let note = format!(
-            "does not fit: state {state} B + stack > {} KiB RAM",
-            target.ram >> 10
-        );
-        cells.extend([note, "".into(), "".into(), "".into(), "".into(), "".into()]);
-    } else {
-        // The estimate's peak stack, and how much more the scale search
-        // needs.
-        let ram = match (int("state"), int("stack_estimate")) {
-            (Some(state), Some(stack)) => {
-                let extra = int("stack_scaled").map_or(0, |s| s.saturating_sub(stack));
-                format!(
-                    "{} B ({state} + {stack}; scale search +{extra})",
-                    state + stack
-                )
-            }
-            _ => "–".into(),
-        };
-        cells.extend([
-            count("instructions_estimate"),
-            ratio("instructions_per_vote"),
-            ratio("vote_loop_per_vote"),
-            count("instructions_reference"),
-            count("instructions_scale_search"),
-            ram,
-        ]);
-    }
-    cells.extend([count("votes"), bytes("static_ram"), bytes("flash_library")]);
-    cells
-}
-
-/// One row of the verification table: the estimate with and without the
-/// verification by alignment, and the difference.
-fn verification_row(target: &Target, config: &Config, v: &Map<String, Value>) -> Vec<String> {
-    let int = |k: &str| v.get(k).and_then(Value::as_u64);
-    let count = |k: &str| int(k).map_or("–".into(), group);
-    let n = match config.choice {
-        "360" => "360".to_string(),
-        choice => format!("{} ({choice})", config.n_theta),
-    };
-    let mut cells = vec![target.name.to_string(), config.grid(), n];
-    if v.get("fits") == Some(&Value::Bool(false)) {
-        let state = int("state").unwrap_or(0);
-        cells.push(format!(
-            "does not fit: state {state} B (verification {} B) + stack > {} KiB RAM",
-            int("state_verification").unwrap_or(0),
-            target.ram >> 10
-        ));
-        cells.extend(std::iter::repeat_n(
-            String::new(),
-            VERIFICATION_HEADER.len() - 4,
-        ));
-        return cells;
-    }
-    let pair = |a: &str, b: &str| match (int(a), int(b)) {
-        (Some(a), Some(b)) => format!("{a} B / {b} B"),
-        _ => "–".into(),
-    };
-    let state = match (int("state_verification"), int("state")) {
-        (Some(part), Some(state)) => format!("{part} B (of {state} B)"),
-        _ => "–".into(),
-    };
-    let ram = match (int("ram_verification"), int("state_verification")) {
-        (Some(ram), Some(state)) => format!("{ram} B ({state} + {})", ram - state),
-        _ => "–".into(),
-    };
-    let overlap =
-        int("overlap_permille").map_or("–".into(), |p| format!("{}.{} %", p / 10, p % 10));
-    cells.extend([
-        count("instructions_estimate"),
-        count("instructions_unverified"),
-        count("instructions_verification"),
-        pair("stack_estimate", "stack_unverified"),
-        state,
-        ram,
-        overlap,
-        match (int("ram_flash_reference"), int("stack_unverified")) {
-            (Some(ram), Some(stack)) => format!("{ram} B ({} + {stack})", ram - stack),
-            _ => "–".into(),
-        },
-        match (int("ram_verified_flash_reference"), int("stack_estimate")) {
-            (Some(ram), Some(stack)) => format!("{ram} B ({} + {stack})", ram - stack),
-            _ => "–".into(),
-        },
-        v.get("instructions_per_budget_row")
-            .and_then(Value::as_f64)
-            .map_or("–".into(), |c| format!("{c:.2}")),
-        match (int("instructions_cut_large"), int("budget_rows_cut_large")) {
-            (Some(count), Some(rows)) => format!("{} ({} rows)", group(count), group(rows)),
-            _ => "–".into(),
-        },
-    ]);
-    cells
-}
-
-/// Columns of the budget table.
-const HEADER: [&str; 12] = [
-    "target",
-    "grid",
-    "N_θ",
-    "instr. / estimate",
-    "instr. / vote",
-    "vote loop instr. / vote",
-    "instr. / reference",
-    "scale search, extra instr.",
-    "estimator RAM (state + stack)",
-    "votes",
-    "static RAM",
-    "library flash",
-];
-
-/// Columns of the verification table.
-const VERIFICATION_HEADER: [&str; 14] = [
-    "target",
-    "grid",
-    "N_θ",
-    "instr. / estimate, verification on",
-    "verification off",
-    "verification, extra instr.",
-    "peak stack on / off",
-    "verification state (reference grid)",
-    "verification, extra RAM (state + stack)",
-    "overlap",
-    "verification off, reference in flash: RAM (estimator + stack)",
-    "verified, reference in flash (grid too): RAM (estimator + stack)",
-    "searches, instr. per budget row",
-    "estimate cut by the larger work budget",
-];
-
-/// A Markdown table.
-fn table(header: &[&str], rows: &[Vec<String>]) -> String {
-    let mut out = String::new();
-    let _ = writeln!(out, "| {} |", header.join(" | "));
-    let _ = writeln!(out, "|{}", "---|".repeat(header.len()));
-    for r in rows {
-        let _ = writeln!(out, "| {} |", r.join(" | "));
-    }
-    out
 }
 
 /// Compares `measured` with the committed `budget` body: every checked value
@@ -613,7 +482,7 @@ pub fn check(budget: &Value, measured: &Map<String, Value>) -> Vec<String> {
                     regressions.push(format!("{triple} {key}: {metric} not measured any more"));
                 }
             }
-            for metric in CHECKED {
+            for &metric in CHECKED.iter().chain(&lidar::CHECKED) {
                 let (Some(limit), Some(value)) = (allowed[metric].as_f64(), now[metric].as_f64())
                 else {
                     continue;
@@ -675,11 +544,5 @@ mod tests {
         let dump = "qemu: fatal: Lockup\nR12=00000000 R13=1ffffd18 R14=fffffff9\n";
         assert_eq!(crashed_stack_pointer(dump), Some(0x1fff_fd18));
         assert_eq!(crashed_stack_pointer("nothing"), None);
-    }
-
-    #[test]
-    fn groups_thousands() {
-        assert_eq!(group(1234567), "1\u{202f}234\u{202f}567");
-        assert_eq!(group(12), "12");
     }
 }
