@@ -36,6 +36,18 @@ impl Raster {
         alpha: Angle,
         t: (I16F16, I16F16),
     ) -> Option<BeamAgreement> {
+        self.agreement_on(reference, current, alpha, t, Ends::All)
+    }
+
+    /// [`Self::agreement_on_beams`] over `ends` of each scan.
+    fn agreement_on(
+        &self,
+        reference: &Scan<'_>,
+        current: &Scan<'_>,
+        alpha: Angle,
+        t: (I16F16, I16F16),
+        ends: Ends,
+    ) -> Option<BeamAgreement> {
         let q16 = |metres: f32| self.metres_q16(metres);
         // τ between 1/256 cell and 256 cells: τ² below 2⁴⁸.
         let tau = q16(BEAM_MATCH_M).clamp(1 << 8, 1 << 24);
@@ -66,16 +78,16 @@ impl Raster {
             &ScanBeams::new(current, self),
             current.ranges,
             &forward,
-            tau,
-            margin,
+            (tau, margin),
+            ends,
         )?;
         let b = one_way(
             &mut into_current,
             &ScanBeams::new(reference, self),
             reference.ranges,
             &backward,
-            tau,
-            margin,
+            (tau, margin),
+            ends,
         )?;
         let mean = |x: i64, y: i64| Score::from_bits(((x + y) / 2) as i32);
         Some(BeamAgreement {
@@ -96,8 +108,12 @@ impl Raster {
     /// `estimate.alpha` has a translation or the beams cannot score it.
     ///
     /// Cost per listed rotation (at most five): one vote (96 × 96 end-point
-    /// pairs), five [`agreement_on_beams`](Self::agreement_on_beams)
-    /// and one refinement. The chosen rotation goes first; a rival whose
+    /// pairs), four starts scored on a sample of 96 end points a scan, two
+    /// [`agreement_on_beams`](Self::agreement_on_beams) (the best start,
+    /// then refined) and one refinement (choosing the start on all end
+    /// points as well cost the check 12 % more, M4F real pairs median
+    /// 8.32 → 7.44 M instructions, and changed 2 of 4 730 shared pairs from
+    /// confident to flagged). The chosen rotation goes first; a rival whose
     /// best start trails it by 0.2 or more is not refined (its score is the
     /// start's; on the shared real pairs this changed no answer, only the
     /// reported scores of such rivals).
@@ -138,10 +154,11 @@ impl Raster {
             };
             let voted = voted_translations(self, reference, current, candidate.alpha);
             let starts = core::iter::once((x, y)).chain(voted.iter().copied());
-            // Each start scored as it is; the best one refined and scored
-            // again (the better of the two is kept).
-            let score = |alpha: Angle, translation: (I16F16, I16F16)| {
-                let agreement = self.agreement_on_beams(reference, current, alpha, translation)?;
+            // Each start scored on a sample of the end points; the best one
+            // scored on all of them, then refined and scored again (the
+            // better of the two is kept).
+            let score = |alpha: Angle, translation: (I16F16, I16F16), ends: Ends| {
+                let agreement = self.agreement_on(reference, current, alpha, translation, ends)?;
                 Some(BeamPose {
                     listed: candidate.alpha,
                     alpha,
@@ -150,8 +167,9 @@ impl Raster {
                 })
             };
             let Some(best_start) = starts
-                .filter_map(|t| score(candidate.alpha, t))
+                .filter_map(|t| score(candidate.alpha, t, Ends::Sampled))
                 .max_by_key(|p| p.agreement.score())
+                .and_then(|p| score(p.alpha, p.translation, Ends::All))
             else {
                 continue;
             };
@@ -181,7 +199,7 @@ impl Raster {
                 })
                 .and_then(Result::ok)
                 .filter(|f| is_chosen || f.alpha.distance(estimate.alpha) >= SEPARATION)
-                .and_then(|f| score(f.alpha, (f.translation.x, f.translation.y)));
+                .and_then(|f| score(f.alpha, (f.translation.x, f.translation.y), Ends::All));
             let scored = match refined {
                 Some(r) if r.agreement.score() >= best_start.agreement.score() => r,
                 _ => best_start,
@@ -313,23 +331,36 @@ fn voted_translations(
     peaks
 }
 
+/// Which end points of a scan a pose is scored on.
+#[derive(Clone, Copy)]
+enum Ends {
+    /// Every near end point.
+    All,
+    /// At most [`VOTE_POINTS`] of them ([`for_each_sampled_end`]): how the
+    /// check picks the best of its starts, at a quarter of the work on a
+    /// 360-beam scan.
+    Sampled,
+}
+
 /// One direction of [`Raster::agreement_on_beams`]: `from`'s end points
-/// moved by `pose` into the frame of `into`. Returns the explained, the
-/// seen-through and the in-view shares (Q16), `None` without end points.
+/// (`ends` of them) moved by `pose` into the frame of `into`, with the match
+/// distance τ and the seen-through margin (Q16 cells). Returns the
+/// explained, the seen-through and the in-view shares (Q16), `None` without
+/// end points.
 fn one_way(
     into: &mut Segments<'_>,
     from: &ScanBeams,
     ranges: &[f32],
     pose: &FitPose,
-    tau: i64,
-    margin: i64,
+    (tau, margin): (i64, i64),
+    sample: Ends,
 ) -> Option<(i64, i64, i64)> {
     let (s, c) = sin_cos(pose.theta);
     let rot = (i64::from(c), i64::from(s));
     let tau_sq = tau * tau;
     // Σ (τ² − r²), divided once at the end (τ² < 2⁴⁸: the sum in 128 bits).
     let (mut explained, mut seen, mut in_view, mut count) = (0i128, 0i64, 0i64, 0i64);
-    for_each_end(from, ranges, |q| {
+    let mut score_end = |q: (i32, i32)| {
         count += 1;
         let p = pose.apply(rot, q);
         let Some(beam) = into.beam_of(p) else {
@@ -348,7 +379,14 @@ fn one_way(
             explained += i128::from(tau_sq - r * r);
         }
         seen += i64::from(into.seen_through(p, &ends, margin));
-    });
+    };
+    match sample {
+        Ends::All => for_each_end(from, ranges, score_end),
+        // The sample's coordinates are the ends' own (`i32`).
+        Ends::Sampled => for_each_sampled_end(from, ranges, |x, y| {
+            score_end((x as i32, y as i32));
+        }),
+    }
     // The mean of 1 − (r/τ)², Q16: at most 2¹⁶.
     let explained = (explained << 16)
         .checked_div(i128::from(tau_sq) * i128::from(count))
