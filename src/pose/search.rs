@@ -337,8 +337,9 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
     /// blocks are that large). Level `k` itself (2–3 cells of `2ᵏ`) pruned
     /// almost nothing on the real scan pairs; level `k − 2` cut the
     /// estimate's median 14.83 → 14.07 M instructions (M4F, 128²,
-    /// `bash tools/budgets.sh`) and changed 14 of 4 730 shared pairs'
-    /// outputs (ties of the search), none of them right ↔ wrong.
+    /// `bash tools/budgets.sh`) and changed the answer of 14 of the 4 730
+    /// shared pairs (ties of the search; within 2° and wrong among
+    /// unflagged unchanged).
     #[inline(always)]
     pub(super) fn reaches(&self, k: usize, c0: i32, r0: i32, (c, r): Cell) -> bool {
         let side = 1i32 << k;
