@@ -3,7 +3,7 @@
 //! ```text
 //! budgets run --machine MACHINE [--timeout SECONDS] ELF
 //! budgets report [--check] [--only SIDExSIDE/N|real-scans/…|lidar] [--root DIR] [--plugin LIB]
-//! budgets profile --machine MACHINE [--region NAME] [--minus NAME] [--top N] [--root DIR] [--plugin LIB] ELF
+//! budgets profile --machine MACHINE [--region NAME] [--minus NAME] [--cycle N] [--top N] [--root DIR] [--plugin LIB] ELF
 //! ```
 //!
 //! `run` starts a firmware ELF on a `qemu-system-arm` machine with semihosting,
@@ -36,7 +36,11 @@
 //! profile and prints where the instructions of one region (default
 //! `estimate`) go, optionally minus another region, by function, inlined
 //! function, library source line and calls (see `profile.rs`). E.g. the
-//! verification's cost: `--region estimate --minus unverified`.
+//! verification's cost: `--region estimate --minus unverified`. With
+//! `--cycle N` the regions are numbered, not named: `--region K` sums region
+//! `K` of every round of `N` after the overhead (the real-scan firmware
+//! measures 7 a pair: `--cycle 7 --region 4` is the estimate, 5 the check on
+//! the beams).
 
 mod elf;
 mod firmware;
@@ -133,6 +137,7 @@ fn profile(args: &[String]) -> Result<ExitCode, Error> {
         plugin,
         region: option(args, "--region").unwrap_or("estimate"),
         minus: option(args, "--minus"),
+        cycle: option(args, "--cycle").map(str::parse).transpose()?,
         top: option(args, "--top").map_or(Ok(25), str::parse)?,
         scratch: root.join("target/budgets"),
         root: root.clone(),

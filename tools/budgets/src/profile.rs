@@ -42,6 +42,11 @@ pub struct Request<'a> {
     pub region: &'a str,
     /// Region subtracted address by address, e.g. `unverified`.
     pub minus: Option<&'a str>,
+    /// For a firmware that announces no region names and measures `N`
+    /// regions a round after the markers' overhead (`examples/real_scans.rs`:
+    /// 7 a pair): `region` and `minus` are then indices in the round, and
+    /// each is summed over every round.
+    pub cycle: Option<usize>,
     /// Rows per table.
     pub top: usize,
     /// Where the profile file goes.
@@ -86,16 +91,81 @@ pub fn run(request: &Request<'_>) -> Result<(), Error> {
         )
         .into());
     }
-    let names: Vec<&str> = outcome
-        .log
-        .iter()
-        .filter_map(|l| l.strip_prefix("bench "))
-        .filter_map(|l| l.split_whitespace().next())
-        .collect();
     let text =
         std::fs::read_to_string(&file).map_err(|e| format!("read {}: {e}", file.display()))?;
     let _ = std::fs::remove_file(&file);
     let regions = parse(&text)?;
+    let (main, other) = match request.cycle {
+        Some(n) => (
+            in_rounds(&regions, n, request.region)?,
+            request
+                .minus
+                .map(|m| in_rounds(&regions, n, m))
+                .transpose()?,
+        ),
+        None => by_name(&regions, &outcome.log, request.region, request.minus)?,
+    };
+    let overhead = regions.first().map_or(0, |r| r.total);
+    let mut counts = main.counts;
+    let mut total = main.total - overhead * main.rounds;
+    let mut title = format!("`{}`", request.region);
+    if let (Some(other), Some(minus)) = (other, request.minus) {
+        for (&addr, &n) in &other.counts {
+            *counts.entry(addr).or_insert(0) -= n;
+        }
+        counts.retain(|_, n| *n != 0);
+        total -= other.total - overhead * other.rounds;
+        title = format!("`{}` minus `{minus}`", request.region);
+    }
+    if let Some(n) = request.cycle {
+        title = format!("{title} of every {n} regions ({} rounds)", main.rounds);
+    }
+    print_profile(request, &title, total, &counts)
+}
+
+/// The counts of one or more regions added up, and how many.
+struct Summed {
+    total: i64,
+    counts: HashMap<u64, i64>,
+    rounds: i64,
+}
+
+/// Region `index` (a number) of every round of `n` after the overhead.
+fn in_rounds(regions: &[Region], n: usize, index: &str) -> Result<Summed, Error> {
+    let k: usize = index
+        .parse()
+        .map_err(|_| format!("--region {index}: with --cycle, an index"))?;
+    if k >= n {
+        return Err(format!("--region {k}: beyond the round of {n}").into());
+    }
+    let mut sum = Summed {
+        total: 0,
+        counts: HashMap::new(),
+        rounds: 0,
+    };
+    for region in regions.iter().skip(1 + k).step_by(n) {
+        sum.total += region.total;
+        sum.rounds += 1;
+        for (&addr, &c) in &region.counts {
+            *sum.counts.entry(addr).or_insert(0) += c;
+        }
+    }
+    Ok(sum)
+}
+
+/// The regions named `region` and `minus` by the firmware's
+/// `bench <name> …` lines, one each.
+fn by_name(
+    regions: &[Region],
+    log: &[String],
+    region: &str,
+    minus: Option<&str>,
+) -> Result<(Summed, Option<Summed>), Error> {
+    let names: Vec<&str> = log
+        .iter()
+        .filter_map(|l| l.strip_prefix("bench "))
+        .filter_map(|l| l.split_whitespace().next())
+        .collect();
     if regions.len() != names.len() {
         return Err(format!(
             "{} regions in the profile, {} announced by the firmware",
@@ -111,28 +181,31 @@ pub fn run(request: &Request<'_>) -> Result<(), Error> {
             .and_then(|i| regions.get(i))
             .ok_or_else(|| format!("no region `{name}` (the firmware announced {names:?})"))
     };
-    let overhead = find("overhead").map_or(0, |r| r.total);
-    let main = find(request.region)?;
-    let mut counts = main.counts.clone();
-    let mut total = main.total - overhead;
-    let mut title = format!("`{}`", request.region);
-    if let Some(minus) = request.minus {
-        let other = find(minus)?;
-        for (&addr, &n) in &other.counts {
-            *counts.entry(addr).or_insert(0) -= n;
-        }
-        counts.retain(|_, n| *n != 0);
-        total -= other.total - overhead;
-        title = format!("`{}` minus `{minus}`", request.region);
-    }
+    let one = |r: &Region| Summed {
+        total: r.total,
+        counts: r.counts.clone(),
+        rounds: 1,
+    };
+    let main = one(find(region)?);
+    let other = minus.map(|m| find(m).map(one)).transpose()?;
+    Ok((main, other))
+}
 
+/// Prints the tables of `counts` (addresses of the ELF), `total`
+/// instructions under `title`.
+fn print_profile(
+    request: &Request<'_>,
+    title: &str,
+    total: i64,
+    counts: &HashMap<u64, i64>,
+) -> Result<(), Error> {
     let addresses: Vec<u64> = counts.keys().copied().collect();
     let frames = symbolize(request.elf, &addresses)?;
     let library = request.root.join("src");
     let mut inclusive: HashMap<String, i64> = HashMap::new();
     let mut own: HashMap<String, i64> = HashMap::new();
     let mut lines: HashMap<String, i64> = HashMap::new();
-    for (addr, n) in &counts {
+    for (addr, n) in counts {
         let chain = frames.get(addr).map_or(&[][..], Vec::as_slice);
         let mut seen = HashSet::new();
         for (function, _) in chain {
@@ -158,7 +231,7 @@ pub fn run(request: &Request<'_>) -> Result<(), Error> {
                 .or_insert(0) += n;
         }
     }
-    let calls = calls(request.elf, &counts)?;
+    let calls = calls(request.elf, counts)?;
 
     println!(
         "Profile of {title} on {} ({}): {} instructions (markers' overhead subtracted; \
@@ -401,6 +474,30 @@ mod tests {
         assert_eq!(regions[0].counts[&0x12], 3);
         assert_eq!(regions[1].counts[&0x10], 7);
         assert!(parse("0x10 2\n").is_err());
+    }
+
+    /// `--cycle`: one index of every round, summed, the overhead first.
+    #[test]
+    fn sums_one_region_of_every_round() {
+        let mut text = String::from("region 0 1\n0x4 1\n");
+        for round in 0..2 {
+            for k in 0..3 {
+                text += &format!(
+                    "region {} {}\n0x{:x} {}\n",
+                    1 + 3 * round + k,
+                    10 * k + round,
+                    0x10 + k,
+                    10 * k + round
+                );
+            }
+        }
+        let regions = parse(&text).unwrap();
+        let second = in_rounds(&regions, 3, "1").unwrap();
+        assert_eq!((second.total, second.rounds), (10 + 11, 2));
+        assert_eq!(second.counts[&0x11], 21);
+        assert_eq!(second.counts.len(), 1);
+        assert!(in_rounds(&regions, 3, "3").is_err());
+        assert!(in_rounds(&regions, 3, "estimate").is_err());
     }
 
     #[test]
