@@ -100,3 +100,25 @@ fn a_search_that_runs_out_says_so() {
     assert_eq!(e.status, Status::SearchCut, "{e:?}");
     assert!(e.confidence < Score::from_num(0.5), "{e:?}");
 }
+
+/// `Estimate::search_rows` is the budget an estimate needs, exactly: with
+/// that budget it is the unbudgeted estimate, field for field; with one row
+/// less its last evaluation does not fit and the status says so. Without
+/// verification it is 0.
+#[test]
+fn search_rows_is_the_budget_an_estimate_needs() {
+    for (i, kind) in SceneKind::ALL.iter().enumerate() {
+        let (g1, g2) = scene_pair(*kind, 0x5EA2_C400 + i as u64);
+        let free = estimate(&g1, &g2, u32::MAX);
+        let needed = free.search_rows;
+        assert!(needed > 0, "{kind:?}: {free:?}");
+        assert_eq!(estimate(&g1, &g2, needed), free, "{kind:?}");
+        let short = estimate(&g1, &g2, needed - 1);
+        assert_eq!(short.status, Status::SearchCut, "{kind:?}: {short:?}");
+        assert!(short.search_rows < needed, "{kind:?}: {short:?}");
+        let unverified = Estimator::<W, W, RW, N, HALF, RHO, PW>::new(Mode::Improved)
+            .with_verification(false)
+            .estimate_pair(&g1, &g2);
+        assert_eq!(unverified.search_rows, 0, "{kind:?}");
+    }
+}

@@ -43,6 +43,11 @@ pub struct OutputLine {
     /// (verification on).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub overlap: Option<f64>,
+    /// The work the verification's translation searches spent
+    /// (`Estimate::search_rows`, the unit of `--search-budget`;
+    /// verification on).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub search_rows: Option<u32>,
     /// Robot displacement x, metres, frame of scan 1 (null when unknown).
     pub dx_m: Option<f64>,
     /// Robot displacement y, metres.
@@ -261,6 +266,11 @@ impl OutputLine {
                 .iter()
                 .any(|c| c.alignment.is_some())
                 .then(|| round(e.overlap.to_num::<f64>(), 4)),
+            search_rows: e
+                .candidates
+                .iter()
+                .any(|c| c.alignment.is_some())
+                .then_some(e.search_rows),
             dx_m: p.translation.map(|t| round(t.0, 4)),
             dy_m: p.translation.map(|t| round(t.1, 4)),
             correlation: Some(round(e.correlation.to_num::<f64>(), 4)),
@@ -296,6 +306,7 @@ impl OutputLine {
             free_space: Vec::new(),
             runner_up: None,
             overlap: None,
+            search_rows: None,
             dx_m: None,
             dy_m: None,
             correlation: None,

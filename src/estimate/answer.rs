@@ -135,7 +135,10 @@ pub struct Thresholds {
     /// real-time bound at the price of more cut searches. Default 2²⁶
     /// (67 108 864): the most a real scan pair of `../shared/data` spends is
     /// 6.6 M at 64², 10.0 M at 128² and 50.2 M at 256² (medians 1.2 M,
-    /// 1.7 M, 5.9 M; chosen on those data). `u32::MAX`: no budget.
+    /// 1.7 M, 5.9 M; chosen on those data). `u32::MAX`: no budget. What an
+    /// estimate spent is [`Estimate::search_rows`]; what each budget costs
+    /// in answers on the real scan pairs and bounds in instructions:
+    /// `docs/work-budget.md`.
     pub search_budget: u32,
 }
 
@@ -201,6 +204,13 @@ pub struct Estimate {
     /// rotation is not resolved or a prior picked another candidate than the
     /// one the translation was fitted for.
     pub translation: Option<Pose>,
+    /// With verification: the work its translation searches spent, in the
+    /// unit of [`Thresholds::search_budget`] (grid rows a sampled point,
+    /// each evaluation charged its most), whether a budget was set or not;
+    /// 0 without verification. Log it on the robot to choose a budget: on
+    /// the shared real scan pairs at 128² the median is about 1 M and the
+    /// largest about 20 M (`python3 tools/work_budget.py`, `docs/work-budget.md`).
+    pub search_rows: u32,
 }
 
 impl Estimate {
@@ -220,6 +230,7 @@ impl Estimate {
             runner_up: None,
             overlap: Score::ZERO,
             translation: None,
+            search_rows: 0,
         }
     }
 }

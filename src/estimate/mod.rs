@@ -306,6 +306,7 @@ impl<
             } else {
                 None
             },
+            search_rows: 0,
         }
     }
 

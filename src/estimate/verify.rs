@@ -115,7 +115,7 @@ impl<
         let max_shift = self.max_shift() as i32;
         let separation = Angle::from_steps_q16(((N / 72).max(2) as i64) << 16, N);
         let mut seeds: Vec<Seed, SEEDS> = Vec::new();
-        let (winner, points, near, alpha, u_q8, cut) = {
+        let (winner, points, near, alpha, u_q8, cut, search_rows) = {
             // A point on the reference's free space costs what the support
             // charges: `free_space_weight` in alignment units, twice that in
             // points (a point scores at most 2).
@@ -190,6 +190,7 @@ impl<
                         status: Status::SearchCut,
                         correlation: best_score,
                         half_turn: test,
+                        search_rows: aligner.spent(),
                         ..Estimate::no_structure()
                     },
                     None => Estimate::no_structure(),
@@ -241,7 +242,15 @@ impl<
                 let p = winner.placement;
                 (p.alpha, shift_q8(p.shift), aligner.near(p.shift))
             };
-            (*winner, aligner.points(), near, alpha, u_q8, aligner.cut())
+            (
+                *winner,
+                aligner.points(),
+                near,
+                alpha,
+                u_q8,
+                aligner.cut(),
+                aligner.spent(),
+            )
         };
         let max_score = (2 * points).max(1);
         let alignment = |score: u32| {
@@ -369,6 +378,7 @@ impl<
             runner_up: rival.map(|r| candidate(&r, false)),
             overlap,
             translation,
+            search_rows,
         }
     }
 }

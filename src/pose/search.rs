@@ -67,6 +67,8 @@ pub(crate) struct Aligner<'a, const W: usize, const H: usize, const RW: usize, c
     pub(super) budget: core::cell::Cell<u32>,
     /// A search stopped because the budget ran out.
     pub(super) cut: core::cell::Cell<bool>,
+    /// Grid rows (per sampled point) the searches have charged so far.
+    pub(super) spent: core::cell::Cell<u32>,
 }
 
 impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
@@ -108,6 +110,7 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
             count: 0,
             budget: core::cell::Cell::new(u32::MAX),
             cut: core::cell::Cell::new(false),
+            spent: core::cell::Cell::new(0),
         }
     }
 
@@ -124,17 +127,26 @@ impl<'a, const W: usize, const H: usize, const RW: usize, const PW: usize>
         self.cut.get()
     }
 
+    /// The work the searches have charged so far ([`Self::cost`] of every
+    /// evaluation they made), whether a budget is set or not.
+    pub(crate) fn spent(&self) -> u32 {
+        self.spent.get()
+    }
+
     /// Takes the work of one evaluation at pyramid level `k` (0: a score)
     /// from the budget ([`Self::cost`]); `false` (and the search marked cut)
     /// when the budget cannot cover it. A budget of `u32::MAX` is none.
     pub(super) fn spend(&self, k: usize) -> bool {
+        let cost = self.cost(k);
         let budget = self.budget.get();
         if budget == u32::MAX {
+            self.spent.set(self.spent.get().saturating_add(cost));
             return true;
         }
-        match budget.checked_sub(self.cost(k)) {
+        match budget.checked_sub(cost) {
             Some(left) => {
                 self.budget.set(left);
+                self.spent.set(self.spent.get().saturating_add(cost));
                 true
             }
             None => {

@@ -245,6 +245,13 @@ class Estimate:
         the first (``None`` without verification)."""
         return self._data.get("overlap")
 
+    @property
+    def search_rows(self) -> Optional[int]:
+        """The work the verification's translation searches spent, in the
+        unit of the library's ``Thresholds::search_budget`` (``None``
+        without verification)."""
+        return self._data.get("search_rows")
+
     def _angle(self, key: str, opposite: str) -> Optional[float]:
         """``key`` from the JSON, or −``opposite`` when the JSON has that."""
         if key in self._data:
