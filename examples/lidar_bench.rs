@@ -1,8 +1,9 @@
 //! Firmware bench of the lidar drivers (issue 25): instructions per packet
 //! of each protocol's parser, alone and with the revolution assembler, and
 //! the RAM of each, on the Cortex-M4F and the Cortex-M0 (QEMU with the
-//! `qemu-icount` plugin: `bash tools/lidar_budgets.sh` writes
-//! `docs/lidar/budgets.md`).
+//! `qemu-icount` plugin: `bash tools/budgets.sh` measures it with the rest
+//! and writes its rows into `budgets/TABLE.md`; `bash tools/budgets.sh
+//! --only lidar` measures it alone).
 //!
 //! The four captures of `lidar/tests/data/` are in flash; for each, two
 //! regions between the markers `hh_bench_start` / `hh_bench_stop`: the
@@ -104,5 +105,5 @@ mod firmware {
 /// On the host this example does nothing: it is firmware.
 #[cfg(not(target_os = "none"))]
 fn main() {
-    println!("lidar_bench is firmware: build it for thumbv7em-none-eabihf or thumbv6m-none-eabi (tools/lidar_budgets.sh)");
+    println!("lidar_bench is firmware: build it for thumbv7em-none-eabihf or thumbv6m-none-eabi (bash tools/budgets.sh --only lidar)");
 }
