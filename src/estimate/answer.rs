@@ -208,8 +208,8 @@ pub struct Estimate {
     /// unit of [`Thresholds::search_budget`] (grid rows a sampled point,
     /// each evaluation charged its most), whether a budget was set or not;
     /// 0 without verification. Log it on the robot to choose a budget: on
-    /// the shared real scan pairs at 128² the median is about 1 M and the
-    /// largest about 20 M (`python3 tools/work_budget.py`, `docs/work-budget.md`).
+    /// the shared real scan pairs at 128² the median is 1.6 M and the
+    /// largest 12.0 M (`python3 tools/work_budget.py`, `docs/work-budget.md`).
     pub search_rows: u32,
 }
 
