@@ -68,13 +68,7 @@ pub fn measure(paths: &Paths, target: &Target) -> Result<Result<Entries, String>
     let machine = target.machine.ok_or("not runnable")?;
     let path = build_example(paths, target, "lidar_bench", None, "")?;
     let image = elf::read(&path)?;
-    let plugin = Plugin {
-        library: paths.plugin.clone(),
-        start: image.start.ok_or("no hh_bench_start symbol")?,
-        stop: image.stop.ok_or("no hh_bench_stop symbol")?,
-        stack: image.stack.ok_or("no _stack_end/_stack_start symbols")?,
-        profile: None,
-    };
+    let plugin = Plugin::for_image(paths.plugin.clone(), &image, None)?;
     let run = qemu::run(&path, machine, Some(&plugin), TIMEOUT)?;
     let counts: Vec<u64> = run
         .stderr

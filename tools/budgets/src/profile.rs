@@ -69,13 +69,7 @@ pub fn run(request: &Request<'_>) -> Result<(), Error> {
     let file = request
         .scratch
         .join(format!("profile-{}.txt", std::process::id()));
-    let plugin = Plugin {
-        library: request.plugin.clone(),
-        start: image.start.ok_or("no hh_bench_start symbol")?,
-        stop: image.stop.ok_or("no hh_bench_stop symbol")?,
-        stack: image.stack.ok_or("no _stack_end/_stack_start symbols")?,
-        profile: Some(file.clone()),
-    };
+    let plugin = Plugin::for_image(request.plugin.clone(), &image, Some(file.clone()))?;
     let outcome = qemu::run(
         request.elf,
         request.machine,

@@ -40,6 +40,24 @@ pub struct Plugin {
     pub profile: Option<PathBuf>,
 }
 
+impl Plugin {
+    /// The plugin `library` set to the markers and stack of a bench ELF's
+    /// `image`, writing a flat profile to `profile` if given.
+    pub fn for_image(
+        library: PathBuf,
+        image: &crate::elf::Image,
+        profile: Option<PathBuf>,
+    ) -> Result<Self, Error> {
+        Ok(Self {
+            library,
+            start: image.start.ok_or("no hh_bench_start symbol")?,
+            stop: image.stop.ok_or("no hh_bench_stop symbol")?,
+            stack: image.stack.ok_or("no _stack_end/_stack_start symbols")?,
+            profile,
+        })
+    }
+}
+
 /// Runs `elf` on QEMU machine `machine` with semihosting, optionally with the
 /// instruction-count plugin, killing it after `timeout`.
 pub fn run(

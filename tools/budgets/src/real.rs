@@ -38,13 +38,7 @@ pub fn measure(
     let machine = target.machine.ok_or("not runnable")?;
     let path = build_example(paths, target, "real_scans", None, features)?;
     let image = elf::read(&path)?;
-    let plugin = Plugin {
-        library: paths.plugin.clone(),
-        start: image.start.ok_or("no hh_bench_start symbol")?,
-        stop: image.stop.ok_or("no hh_bench_stop symbol")?,
-        stack: image.stack.ok_or("no _stack_end/_stack_start symbols")?,
-        profile: None,
-    };
+    let plugin = Plugin::for_image(paths.plugin.clone(), &image, None)?;
     // QEMU opens the pair file relative to its working directory: the
     // repository root, where `tools/budgets.sh` runs this.
     let run = qemu::run(&path, machine, Some(&plugin), TIMEOUT)?;

@@ -127,13 +127,7 @@ fn measure_run(
     image: &elf::Image,
 ) -> Result<RunResult, Error> {
     let machine = target.machine.ok_or("not runnable")?;
-    let plugin = Plugin {
-        library: paths.plugin.clone(),
-        start: image.start.ok_or("no hh_bench_start symbol")?,
-        stop: image.stop.ok_or("no hh_bench_stop symbol")?,
-        stack: image.stack.ok_or("no _stack_end/_stack_start symbols")?,
-        profile: None,
-    };
+    let plugin = Plugin::for_image(paths.plugin.clone(), image, None)?;
     let run = qemu::run(elf_path, machine, Some(&plugin), RUN_TIMEOUT)?;
     let mut values = Map::new();
     let config = run
