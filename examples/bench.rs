@@ -224,7 +224,8 @@ mod firmware {
         measure(|| ());
 
         announce("reference", first_votes);
-        let mut reference = measure(|| prepare(&mut estimator, &FIRST));
+        let mut reference = Reference::empty(Mode::Improved.peak_kind());
+        measure(|| prepare(&mut estimator, &FIRST, &mut reference));
 
         // As built, the improved mode verifies by alignment.
         let verifies = estimator.verification();
@@ -315,7 +316,7 @@ mod firmware {
     fn measure_cuts(estimator: &mut Estimator, reference: &mut Reference) -> bool {
         let [first, second] = &SCATTERED;
         estimator.set_scale_search(None);
-        *reference = prepare(estimator, first);
+        prepare(estimator, first, reference);
         let mut cut_both = true;
         for (what, budget) in [("cut-small", CUT_BUDGETS[0]), ("cut-large", CUT_BUDGETS[1])] {
             estimator.set_thresholds(Thresholds {
@@ -330,13 +331,15 @@ mod firmware {
         cut_both
     }
 
-    /// The reference of `grid`: every reference of the bench is prepared
-    /// through this one function, so that the library's code for it is
-    /// linked once (two inlined call sites cost 4 KiB of flash) and its
-    /// scratch stays in this frame, popped before the next estimate.
+    /// Makes `reference` the reference of `grid`, in place (as a firmware
+    /// short of RAM does: no second reference on the stack): every
+    /// reference of the bench is prepared through this one function, so
+    /// that the library's code for it is linked once (two inlined call
+    /// sites cost 4 KiB of flash) and its scratch stays in this frame,
+    /// popped before the next estimate.
     #[inline(never)]
-    fn prepare(estimator: &mut Estimator, grid: &BenchGrid) -> Reference {
-        estimator.reference(grid)
+    fn prepare(estimator: &mut Estimator, grid: &BenchGrid, reference: &mut Reference) {
+        estimator.reference_in_place(grid, reference);
     }
 
     /// The same runs and logs without the library and the grids.

@@ -228,7 +228,7 @@ mod firmware {
                 };
                 raster = r;
                 rasterize(&raster, &keyframe.scan(), &mut key_grid, &mut key_free);
-                reference = estimator.reference(&key_grid);
+                estimator.reference_in_place(&key_grid, &mut reference);
             }
         }
         let error = (support::millidegrees(chain.pose().heading) - TRUE_TURN_MDEG).abs();

@@ -45,14 +45,14 @@ impl<const RHO: usize> Profile<RHO> {
 /// is 2 KiB). A reference stored with the firmware can live in flash instead
 /// of RAM: see [`Self::from_bytes`].
 ///
-/// With the feature `reach-tables` it also keeps the grid's reach tables
-/// (`16·RW·H` bytes more: 8 KiB at 128², 32 KiB at 256²; built by
-/// [`Self::prepare`] and by [`Self::from_bytes`], at compile time for a
-/// `static`, not stored in the bytes): the verification's branch and bound
-/// then reads one bit a point where it read up to 18 grid rows, for the
-/// same answers, bit for bit (about 23 % fewer instructions per verified
-/// estimate on the Cortex-M4F, 1.5× the tool's pairs per second). The tool
-/// enables it; on a microcontroller it pays with the reference in flash.
+/// With the feature `reach-tables` (on by default) it also keeps the grid's
+/// reach tables (`12·RW·H` bytes more: 6 KiB at 128², 24 KiB at 256²; built
+/// by [`Self::prepare`] and by [`Self::from_bytes`], at compile time for a
+/// `static`, so in flash, not stored in the bytes): the verification's
+/// branch and bound then reads one bit a point where it read up to 18 grid
+/// rows, for the same answers, bit for bit (the real pairs' verified
+/// estimate on the Cortex-M4F at 128²: median 14.1 M → 10.7 M
+/// instructions). Without the feature the reference is the size above.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Reference<
     const W: usize,
@@ -96,36 +96,64 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
     /// strongest first (the lowest θ among equals), each at least
     /// `max(HALF/18, 2)` steps (10°) modulo π from those already chosen; as
     /// many as there are, up to [`PROFILE_COLUMNS`].
+    ///
+    /// Returning a reference by value can cost a second one on the stack
+    /// while it is built (with the reach tables, 9 960 B at 128² on the
+    /// Cortex-M4F): a firmware short of RAM keeps one reference and renews
+    /// it with [`Self::prepare_in_place`].
     pub fn prepare<const N: usize>(
         grid: &Grid<W, H, RW>,
         kind: PeakKind,
         columns: &mut [Column<RHO>; 2],
     ) -> Self {
         let signature = Signature::<HALF>::stream::<W, H, RW, N, RHO>(grid, kind, columns);
-        let [column, _] = columns;
-        let mut profiles = [const { Profile::EMPTY }; PROFILE_COLUMNS];
-        let (chosen, count) = strongest_columns(&signature.peak);
-        for (slot, &theta) in profiles.iter_mut().zip(chosen.iter().take(count)) {
-            column.fill(0);
-            vote_column_split::<W, H, RW, N, RHO>(grid, theta, UNIT_SCALE_Q16, column);
-            let max = column.iter().copied().max().unwrap_or(0);
-            let shift = (16 - max.leading_zeros()).saturating_sub(8);
-            let mut counts = [0u8; RHO];
-            for (c, &a) in counts.iter_mut().zip(column.iter()) {
-                *c = (a >> shift) as u8;
-            }
-            *slot = Profile { theta, counts };
-        }
+        let (profiles, count) =
+            profiles_of::<W, H, RW, N, RHO, HALF>(grid, &signature.peak, columns);
+        // Built as the returned value itself (no reference-sized local).
         Self {
             signature,
             profiles,
-            // At most PROFILE_COLUMNS columns are chosen.
-            count: count as u8,
+            count,
             occupied: grid.occupied(),
             grid: grid.clone(),
             #[cfg(feature = "reach-tables")]
             reach: ReachTables::of(grid),
         }
+    }
+
+    /// The reference of an empty grid (what [`Self::prepare`] makes of it):
+    /// a place to [`prepare_in_place`](Self::prepare_in_place) references in.
+    pub const fn empty(kind: PeakKind) -> Self {
+        Self {
+            signature: Signature::empty(kind),
+            profiles: [const { Profile::EMPTY }; PROFILE_COLUMNS],
+            count: 0,
+            occupied: 0,
+            grid: Grid::new(),
+            #[cfg(feature = "reach-tables")]
+            reach: ReachTables::EMPTY,
+        }
+    }
+
+    /// Makes `self` the reference of `grid`, as [`Self::prepare`] does, in
+    /// place: no reference-sized temporary, so a firmware that builds its
+    /// references at run time needs the reference once and this call's
+    /// stack (Cortex-M4F, 128², `N_THETA` = 360, with the reach tables:
+    /// the reference 10 732 B, the call's peak stack in `budgets/TABLE.md`).
+    pub fn prepare_in_place<const N: usize>(
+        &mut self,
+        grid: &Grid<W, H, RW>,
+        kind: PeakKind,
+        columns: &mut [Column<RHO>; 2],
+    ) {
+        self.signature
+            .restream::<W, H, RW, N, RHO>(grid, kind, columns);
+        (self.profiles, self.count) =
+            profiles_of::<W, H, RW, N, RHO, HALF>(grid, &self.signature.peak, columns);
+        self.occupied = grid.occupied();
+        self.grid.clone_from(grid);
+        #[cfg(feature = "reach-tables")]
+        self.reach.build(&self.grid);
     }
 
     /// The reference grid itself, kept for the verification by alignment.
@@ -298,15 +326,19 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
             Some(grid) if signature_is_possible(&signature, occupied, W, H) => grid,
             _ => return Err(Error::InvalidReference),
         };
-        Ok(Self {
+        #[cfg_attr(not(feature = "reach-tables"), allow(unused_mut))]
+        let mut reference = Self {
             signature,
             profiles,
             count: count as u8,
             occupied,
-            #[cfg(feature = "reach-tables")]
-            reach: ReachTables::of(&grid),
             grid,
-        })
+            #[cfg(feature = "reach-tables")]
+            reach: ReachTables::EMPTY,
+        };
+        #[cfg(feature = "reach-tables")]
+        reference.reach.build(&reference.grid);
+        Ok(reference)
     }
 }
 
@@ -404,6 +436,39 @@ const fn signature_is_possible<const HALF: usize>(
         k += 1;
     }
     true
+}
+
+/// The profiles [`Reference::prepare`] keeps for the signature `D` = `peak`
+/// of `grid`, and how many: its [`strongest_columns`] re-voted, with
+/// `columns[0]` as scratch.
+fn profiles_of<
+    const W: usize,
+    const H: usize,
+    const RW: usize,
+    const N: usize,
+    const RHO: usize,
+    const HALF: usize,
+>(
+    grid: &Grid<W, H, RW>,
+    peak: &[u16; HALF],
+    columns: &mut [Column<RHO>; 2],
+) -> ([Profile<RHO>; PROFILE_COLUMNS], u8) {
+    let [column, _] = columns;
+    let mut profiles = [const { Profile::EMPTY }; PROFILE_COLUMNS];
+    let (chosen, count) = strongest_columns(peak);
+    for (slot, &theta) in profiles.iter_mut().zip(chosen.iter().take(count)) {
+        column.fill(0);
+        vote_column_split::<W, H, RW, N, RHO>(grid, theta, UNIT_SCALE_Q16, column);
+        let max = column.iter().copied().max().unwrap_or(0);
+        let shift = (16 - max.leading_zeros()).saturating_sub(8);
+        let mut counts = [0u8; RHO];
+        for (c, &a) in counts.iter_mut().zip(column.iter()) {
+            *c = (a >> shift) as u8;
+        }
+        *slot = Profile { theta, counts };
+    }
+    // At most PROFILE_COLUMNS columns are chosen.
+    (profiles, count as u8)
 }
 
 /// The columns [`Reference::prepare`] keeps for the signature `D` = `peak`:
@@ -513,6 +578,34 @@ mod tests {
     const ASYMMETRY: usize = PEAKS + 2 * 32;
     const PROFILE: usize = ASYMMETRY + 2 * 32;
     const GRID: usize = PROFILE + PROFILE_COLUMNS * (2 + RHO);
+
+    /// Preparing in place over another reference leaves nothing of it: the
+    /// same reference as one prepared afresh, tables included; the empty
+    /// reference is that of an empty grid.
+    #[test]
+    fn prepared_in_place_over_another_reference_is_the_fresh_one() {
+        let mut columns = [[0u16; RHO]; 2];
+        let mut sparse = Grid::<32, 32, 1>::new();
+        sparse.set_cells([(3, 3), (29, 17)]).unwrap();
+        for (kind, other) in [
+            (PeakKind::SingleBin, PeakKind::TwoBin),
+            (PeakKind::TwoBin, PeakKind::SingleBin),
+        ] {
+            let mut reference = prepared(other);
+            assert!(reference.profiles().len() >= 2);
+            let fresh = R::prepare::<64>(&sparse, kind, &mut columns);
+            reference.prepare_in_place::<64>(&sparse, kind, &mut columns);
+            assert_eq!(reference, fresh, "{kind:?}");
+            assert_ne!(reference, prepared(other));
+            // Over a reference with profiles, an empty grid leaves none.
+            let mut reference = prepared(other);
+            reference.prepare_in_place::<64>(&Grid::new(), kind, &mut columns);
+            assert_eq!(reference, R::empty(kind), "{kind:?}");
+            assert!(reference.profiles().is_empty());
+            let empty = R::prepare::<64>(&Grid::new(), kind, &mut columns);
+            assert_eq!(R::empty(kind), empty, "{kind:?}");
+        }
+    }
 
     #[test]
     fn round_trip_both_kinds() {

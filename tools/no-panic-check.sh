@@ -27,8 +27,10 @@
 #   NO_PANIC_OPT_LEVELS   release opt-levels to check, default "3" (the
 #                         crate's release profile); e.g. "3 s z".
 #   NO_PANIC_TARGET       default thumbv7em-none-eabihf.
-#   NO_PANIC_FEATURES     more features of the checker, e.g. "reach-tables"
-#                         (the library's reach tables).
+#   NO_PANIC_FEATURES     more features of the checker.
+#   NO_PANIC_NO_DEFAULT_FEATURES
+#                         1: the checker without its default features, so
+#                         the library without its reach tables.
 #   NO_PANIC_NEGATIVE_CONTROL
 #                         1 (default): run the negative control once, at the
 #                         first opt-level; 0: skip it.
@@ -51,13 +53,15 @@ if ! rustup target list --installed 2>/dev/null | grep -qx "$target"; then
 fi
 
 extra="${NO_PANIC_FEATURES:+,$NO_PANIC_FEATURES}"
+defaults=()
+[[ "${NO_PANIC_NO_DEFAULT_FEATURES:-0}" == 1 ]] && defaults=(--no-default-features)
 status=0
 for opt in ${NO_PANIC_OPT_LEVELS:-3}; do
     export CARGO_PROFILE_RELEASE_OPT_LEVEL="$opt"
     log="$target_dir/strict-$opt.log"
     mkdir -p "$target_dir"
-    echo "no-panic-check: opt-level $opt, $target${extra:+ ($NO_PANIC_FEATURES)}: strict link (panic handler undefined)"
-    if cargo build --quiet --release --locked --target "$target" --features "strict$extra" \
+    echo "no-panic-check: opt-level $opt, $target${extra:+ ($NO_PANIC_FEATURES)}${defaults[*]:+ (${defaults[*]})}: strict link (panic handler undefined)"
+    if cargo build --quiet --release --locked --target "$target" "${defaults[@]}" --features "strict$extra" \
         --manifest-path "$manifest" --target-dir "$target_dir" >"$log" 2>&1; then
         echo "no-panic-check: PASS at opt-level $opt: no panic path is reachable from any public entry point"
         continue
@@ -69,7 +73,7 @@ for opt in ${NO_PANIC_OPT_LEVELS:-3}; do
     fi
     echo "no-panic-check: FAIL at opt-level $opt: panic paths remain; locating them"
     status=1
-    cargo build --quiet --release --locked --target "$target" ${extra:+--features "${extra#,}"} \
+    cargo build --quiet --release --locked --target "$target" "${defaults[@]}" ${extra:+--features "${extra#,}"} \
         --manifest-path "$manifest" --target-dir "$target_dir"
     python3 "$root/tools/no-panic/panic_paths.py" \
         "$target_dir/$target/release/no-panic-check" "$root" || true

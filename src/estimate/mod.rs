@@ -171,6 +171,17 @@ impl<
         Reference::prepare::<N>(grid, self.mode.peak_kind(), &mut [[0; RHO]; 2])
     }
 
+    /// Makes `reference` the reference of `grid` for this estimator's mode,
+    /// in place ([`Reference::prepare_in_place`]: no second reference on
+    /// the stack while it is built).
+    pub fn reference_in_place(
+        &mut self,
+        grid: &Grid<W, H, RW>,
+        reference: &mut Reference<W, H, RW, HALF, RHO>,
+    ) {
+        reference.prepare_in_place::<N>(grid, self.mode.peak_kind(), &mut [[0; RHO]; 2]);
+    }
+
     /// Rotation of `grid` relative to two grids: prepares `first` as the
     /// reference, then [`Self::estimate`].
     pub fn estimate_pair(&mut self, first: &Grid<W, H, RW>, second: &Grid<W, H, RW>) -> Estimate {

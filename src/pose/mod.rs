@@ -6,7 +6,7 @@
 //! * [`scale`]: the bounded 1-D scale search;
 //! * [`pyramid`]: the OR-pooled reference pyramid;
 //! * [`reach`]: per-level reach tables of the reference (feature
-//!   `reach-tables`);
+//!   `reach-tables`, on by default);
 //! * [`search`]: the alignment score and the exact best translation;
 //! * [`icp`]: the sub-cell, sub-step refinement;
 //! * [`agreement`]: a pose judged both ways on a large sample, with the

@@ -1,4 +1,4 @@
-//! Reach tables: for each exact level `k` of the branch and bound
+//! Reach tables: for the upper exact levels `k` of the branch and bound
 //! ([`search`](super::search)), which `(2ᵏ + 2)`-cell squares of the
 //! reference hold an occupied cell, one bit a square.
 //!
@@ -7,8 +7,15 @@
 //! reference cell (its reach). Read from the grid that is `2ᵏ + 2` rows a
 //! point; from the level's table it is one bit. The tables are the same for
 //! every rotation and candidate of a reference, so they are built with it
-//! (feature `reach-tables`): 4 grids, `16 · ROW_WORDS · H` bytes (8 KiB at
-//! 128², 32 KiB at 256²). The answers are those of the rows, bit for bit.
+//! (feature `reach-tables`, on by default): levels 2 to 4, 3 grids,
+//! `12 · ROW_WORDS · H` bytes (6 KiB at 128², 24 KiB at 256²). Level 1 (4
+//! rows a point) reads the grid: its table costs another grid (feature
+//! `reach-tables-level-1`, which the host tool enables) for about 6 % of
+//! the verified estimate on the M4F (real pairs at 128²: median 10.7 M →
+//! 10.1 M instructions) and 15 % of the tool's time on the shared pairs,
+//! and without it a reference built at run time, with its tables, keeps
+//! the verified estimate within 16 KiB of RAM (issue 40). The answers are
+//! those of the rows, bit for bit.
 
 use crate::grid::Grid;
 
@@ -19,60 +26,101 @@ use crate::grid::Grid;
 /// instructions with 4 instead of 3).
 pub(crate) const EXACT_LEVELS: usize = 4;
 
-/// Levels with a table: `1..=`[`TABLE_LEVELS`], the levels whose bound reads
-/// the grid's rows exactly.
-pub(crate) const TABLE_LEVELS: usize = EXACT_LEVELS;
+/// The lowest level with a table: 2, where level 1 reads its 4 rows from
+/// the grid; 1 with the feature `reach-tables-level-1` (a grid more, for
+/// hosts).
+const FIRST_TABLE_LEVEL: usize = if cfg!(feature = "reach-tables-level-1") {
+    1
+} else {
+    2
+};
 
-/// The squares of side `2ᵏ + 2` (`k = 1..=`[`TABLE_LEVELS`]) of a grid that
+/// How many levels have a table: [`FIRST_TABLE_LEVEL`]`..=`[`EXACT_LEVELS`].
+const TABLE_LEVELS: usize = EXACT_LEVELS + 1 - FIRST_TABLE_LEVEL;
+
+/// The squares of side `2ᵏ + 2` (`k =`
+/// [`FIRST_TABLE_LEVEL`]`..=`[`EXACT_LEVELS`]) of a grid that
 /// hold an occupied cell: bit `(c, r)` of level `k` is set when a cell of
 /// `[c, c + 2ᵏ + 2) × [r, r + 2ᵏ + 2)` is (cells outside the grid are
-/// free).
+/// free; bits past column `W` are clear, as in a [`Grid`]).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub(crate) struct ReachTables<const W: usize, const H: usize, const RW: usize> {
-    levels: [Grid<W, H, RW>; TABLE_LEVELS],
+    levels: [[[u32; RW]; H]; TABLE_LEVELS],
 }
 
 // Built and read only with the feature (a `Reference` keeps them); the
 // tests check them either way.
 #[cfg_attr(not(feature = "reach-tables"), allow(dead_code))]
 impl<const W: usize, const H: usize, const RW: usize> ReachTables<W, H, RW> {
-    /// The tables of `grid`, each level from the one below (a square of
-    /// side `2ᵏ + 2` is four of side `2ᵏ⁻¹ + 2`, `2ᵏ⁻¹` apart): about
-    /// `12 · RW · H` word operations a level (a `const fn`, so a reference
-    /// parsed at compile time carries them in flash).
+    /// Tables in which no square reaches anything, to [`build`](Self::build) in place.
+    pub(crate) const EMPTY: Self = Self {
+        levels: [[[0; RW]; H]; TABLE_LEVELS],
+    };
+
+    /// The tables of `grid`.
     pub(crate) const fn of(grid: &Grid<W, H, RW>) -> Self {
-        // Level 0: squares of side 3, two steps of one cell from the grid.
-        let mut below = squares(&squares(grid.words(), 1), 1);
-        let mut levels = [const { Grid::new() }; TABLE_LEVELS];
-        let mut k = 0;
-        while k < TABLE_LEVELS {
-            below = squares(&below, 1 << k);
-            levels[k] = Grid::from_words(below);
+        let mut tables = Self::EMPTY;
+        tables.build(grid);
+        tables
+    }
+
+    /// Makes these the tables of `grid`, in place (no grid-sized temporary:
+    /// a reference built at run time needs no more stack for its tables),
+    /// each level from the one below (a square of side `2ᵏ + 2` is four of
+    /// side `2ᵏ⁻¹ + 2`, `2ᵏ⁻¹` apart): about `12 · RW · H` word operations
+    /// a level. A `const fn`: a reference parsed at compile time carries
+    /// its tables in flash.
+    pub(crate) const fn build(&mut self, grid: &Grid<W, H, RW>) {
+        let words = grid.words();
+        let first = &mut self.levels[0];
+        let mut r = 0;
+        while r < H {
+            first[r] = words[r];
+            r += 1;
+        }
+        // Squares of side 2 and 3 (level 0) from the grid, then each level
+        // up to the first with a table.
+        grow(first, 1);
+        grow(first, 1);
+        let mut k = 1;
+        while k <= FIRST_TABLE_LEVEL {
+            grow(first, 1 << (k - 1));
             k += 1;
         }
-        Self { levels }
+        let mut k = FIRST_TABLE_LEVEL + 1;
+        while k <= EXACT_LEVELS {
+            let (below, level) = self.levels.split_at_mut(k - FIRST_TABLE_LEVEL);
+            let level = &mut level[0];
+            let below = &below[k - FIRST_TABLE_LEVEL - 1];
+            let mut r = 0;
+            while r < H {
+                level[r] = below[r];
+                r += 1;
+            }
+            grow(level, 1 << (k - 1));
+            k += 1;
+        }
     }
 
     /// Whether the square of side `2ᵏ + 2` with its first cell at
-    /// `(col, row)` holds an occupied cell, `k` in `1..=`[`TABLE_LEVELS`];
+    /// `(col, row)` holds an occupied cell, `k` in
+    /// [`FIRST_TABLE_LEVEL`]`..=`[`EXACT_LEVELS`];
     /// `None` when the square starts left of or above the grid (not in the
     /// table) or `k` has no table.
     #[inline]
     pub(crate) fn reaches(&self, k: usize, col: i32, row: i32) -> Option<bool> {
-        let table = self.levels.get(k.wrapping_sub(1))?;
+        let table = self.levels.get(k.wrapping_sub(FIRST_TABLE_LEVEL))?;
         let (col, row) = (usize::try_from(col).ok()?, usize::try_from(row).ok()?);
-        Some(table.get(col, row))
+        let word = table.get(row).and_then(|words| words.get(col / 32));
+        Some(word.is_some_and(|&w| w >> (col % 32) & 1 != 0))
     }
 }
 
-/// The squares of `a` one `step` larger: bit `(c, r)` of the result is set
+/// Grows the squares of `a` by `step`, in place: bit `(c, r)` becomes set
 /// when one of `a`'s bits `(c, r)`, `(c + step, r)`, `(c, r + step)`,
-/// `(c + step, r + step)` is (bits past the grid read clear).
-const fn squares<const RW: usize, const H: usize>(
-    a: &[[u32; RW]; H],
-    step: usize,
-) -> [[u32; RW]; H] {
-    let mut out = [[0u32; RW]; H];
+/// `(c + step, r + step)` was (bits past the grid read clear). Rows and
+/// words go in increasing order, so each reads only bits not yet grown.
+const fn grow<const RW: usize, const H: usize>(a: &mut [[u32; RW]; H], step: usize) {
     let mut r = 0;
     while r < H {
         let mut w = 0;
@@ -81,12 +129,11 @@ const fn squares<const RW: usize, const H: usize>(
             if r + step < H {
                 bits |= a[r + step][w] | shifted(&a[r + step], w, step);
             }
-            out[r][w] = bits;
+            a[r][w] = bits;
             w += 1;
         }
         r += 1;
     }
-    out
 }
 
 /// Word `w` of `row` moved `by` columns towards column 0 (columns past the
@@ -126,7 +173,7 @@ mod tests {
         grid.set(31, 0).unwrap();
         grid.set(32, 5).unwrap();
         let tables = ReachTables::of(&grid);
-        for k in 1..=TABLE_LEVELS {
+        for k in FIRST_TABLE_LEVEL..=EXACT_LEVELS {
             let side = (1 << k) + 2;
             let (mut hits, mut misses) = (0, 0);
             for row in 0..S as i32 + 2 {
@@ -147,9 +194,12 @@ mod tests {
             }
             assert!(hits > 0 && misses > 0, "level {k}: {hits} / {misses}");
         }
-        assert_eq!(tables.reaches(1, -1, 0), None);
-        assert_eq!(tables.reaches(2, 0, -3), None);
+        assert_eq!(tables.reaches(2, -1, 0), None);
+        assert_eq!(tables.reaches(3, 0, -3), None);
+        if FIRST_TABLE_LEVEL > 1 {
+            assert_eq!(tables.reaches(1, 0, 0), None);
+        }
         assert_eq!(tables.reaches(0, 0, 0), None);
-        assert_eq!(tables.reaches(TABLE_LEVELS + 1, 0, 0), None);
+        assert_eq!(tables.reaches(EXACT_LEVELS + 1, 0, 0), None);
     }
 }

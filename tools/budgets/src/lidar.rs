@@ -66,7 +66,7 @@ pub type Entries = Vec<(String, Map<String, Value>)>;
 /// failed.
 pub fn measure(paths: &Paths, target: &Target) -> Result<Result<Entries, String>, Error> {
     let machine = target.machine.ok_or("not runnable")?;
-    let path = build_example(paths, target, "lidar_bench", None, "")?;
+    let path = build_example(paths, target, "lidar_bench", None, target.features)?;
     let image = elf::read(&path)?;
     let plugin = Plugin::for_image(paths.plugin.clone(), &image, None)?;
     let run = qemu::run(&path, machine, Some(&plugin), TIMEOUT)?;

@@ -316,7 +316,10 @@ fn table_page(table: &str) -> String {
          one grid, the ranges while a scan is read: all on the stack).\n\
          {lidar}\
          - Cortex-M4F runs on QEMU `mps2-an386`, Cortex-M0 on `microbit` (16 KiB RAM); RISC-V is only \
-         built (sizes). Release profile: `opt-level = 3`, LTO, one codegen unit.\n",
+         built (sizes). Release profile: `opt-level = 3`, LTO, one codegen unit. The library's \
+         default features (the reach tables) except where a row says `no-default-features`: every \
+         Cortex-M0 row (its benches build the reference in RAM, where 16 KiB cannot hold the \
+         tables) and one Cortex-M4F row of each table, to show what the tables save.\n",
         lidar = lidar::NOTE
     )
 }

@@ -10,7 +10,7 @@ use std::time::Duration;
 
 use serde_json::{json, Map, Value};
 
-use crate::firmware::{build_example, Config, Paths, Target, TARGETS};
+use crate::firmware::{build_example, Config, Paths, Target, TARGETS, WITHOUT_TABLES};
 use crate::qemu::{self, field, number, Plugin};
 use crate::{elf, lidar, real, table, Error};
 
@@ -60,14 +60,14 @@ const BENCHES: usize = 8;
 const RUN_TIMEOUT: Duration = Duration::from_secs(60);
 
 /// Features measured besides the default, at 128² and N_θ = 360: the
-/// reference's reach tables (`reach-tables`).
-pub const EXTRA_FEATURES: &str = "reach-tables";
+/// library without the reference's reach tables.
+pub const EXTRA_FEATURES: &str = WITHOUT_TABLES;
 
 /// The configurations: each side with `N_THETA` = 360 and the two ends of the
 /// paper's recommended range (`hough_heading::config::recommended_n_theta`; the upper
-/// end is exclusive, so the largest even value below it). With `only` (a
-/// key such as `128x128/360`), just that one.
-pub fn configs(only: Option<&str>) -> Vec<Config> {
+/// end is exclusive, so the largest even value below it), and 128², 360
+/// with [`EXTRA_FEATURES`].
+pub fn configs() -> Vec<Config> {
     let mut out = Vec::new();
     for side in SIDES {
         let (min, max_exclusive) = hough_heading::config::recommended_n_theta(side, side);
@@ -92,7 +92,20 @@ pub fn configs(only: Option<&str>) -> Vec<Config> {
         choice: "360",
         features: EXTRA_FEATURES,
     });
-    out.retain(|c| only.is_none_or(|key| c.key() == key));
+    out
+}
+
+/// The configurations `target` measures: [`configs`] with the target's
+/// features, each key once; with `only` (a key such as `128x128/360`), just
+/// that one.
+fn configs_on(target: &Target, only: Option<&str>) -> Vec<Config> {
+    let mut out: Vec<Config> = Vec::new();
+    for config in configs().into_iter().map(|c| c.on(target)) {
+        let key = config.key();
+        if only.is_none_or(|only| only == key) && out.iter().all(|c| c.key() != key) {
+            out.push(config);
+        }
+    }
     out
 }
 
@@ -344,7 +357,6 @@ pub struct Measured {
 /// Builds and measures every target and configuration (with `only`, the
 /// configuration, real-scan entry or [`lidar::ONLY`] named).
 pub fn measure(paths: &Paths, only: Option<&str>) -> Result<Measured, Error> {
-    let configs = configs(only);
     let mut targets = Map::new();
     let mut failures = Vec::new();
     let mut rows = Vec::new();
@@ -353,6 +365,7 @@ pub fn measure(paths: &Paths, only: Option<&str>) -> Result<Measured, Error> {
     let mut lidar_rows = Vec::new();
     for target in &TARGETS {
         eprintln!("budgets: {} ({})", target.name, target.triple);
+        let configs = configs_on(target, only);
         // The firmware without the library (the library's flash), for each configuration.
         let baseline = if configs.is_empty() {
             None
@@ -398,12 +411,15 @@ pub fn measure(paths: &Paths, only: Option<&str>) -> Result<Measured, Error> {
             }
             entries.insert(config.key(), Value::Object(values));
         }
-        // The real scan pairs (`examples/real_scans.rs`); with the reach
-        // tables only where RAM holds them in each reference.
-        for features in ["", EXTRA_FEATURES] {
+        // The real scan pairs (`examples/real_scans.rs`): with the target's
+        // features, and without the reach tables where RAM would hold them.
+        let mut real_features = vec![target.features];
+        if target.ram >= 1 << 20 && target.features != EXTRA_FEATURES {
+            real_features.push(EXTRA_FEATURES);
+        }
+        for features in real_features {
             let key = real::key(features);
-            let runnable =
-                target.machine.is_some() && (features.is_empty() || target.ram >= 1 << 20);
+            let runnable = target.machine.is_some();
             let wanted = only.is_none_or(|only| only == key);
             if !runnable || !wanted {
                 continue;
@@ -499,12 +515,31 @@ mod tests {
 
     #[test]
     fn configs_cover_the_recommended_range() {
-        let c = configs(None);
+        let c = configs();
         assert!(c.iter().any(|c| c.side == 128 && c.n_theta == 360));
         assert!(c
             .iter()
             .any(|c| c.side == 256 && c.n_theta == 256 && c.choice == "min"));
         assert!(c.iter().all(|c| c.n_theta % 2 == 0));
+    }
+
+    #[test]
+    fn the_cortex_m0_measures_every_configuration_without_the_tables_once() {
+        let [m4f, m0, _] = &TARGETS;
+        let on_m0 = configs_on(m0, None);
+        assert!(on_m0.iter().all(|c| c.features == WITHOUT_TABLES));
+        assert_eq!(on_m0.len(), configs().len() - 1);
+        let on_m4f = configs_on(m4f, None);
+        assert_eq!(on_m4f.len(), configs().len());
+        assert_eq!(
+            on_m4f
+                .iter()
+                .filter(|c| c.features == WITHOUT_TABLES)
+                .count(),
+            1
+        );
+        let only = configs_on(m0, Some("128x128/360+no-default-features"));
+        assert_eq!(only.len(), 1);
     }
 
     #[test]
