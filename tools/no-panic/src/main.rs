@@ -9,7 +9,8 @@
 //! 2, which `Reference::from_bytes` must refuse with a typed error). Every
 //! `pub fn` of the library (root, `config`, `stages`, and their methods) is
 //! called: `vote_column_pair`, `Signature::stream`/`restream`,
-//! `Reference::prepare`, `TrigTable::cos`/`sin`, `ScaleRange::min`/`max`,
+//! `Reference::prepare` (`prepare_in_place`, `empty` and
+//! `Estimator::reference_in_place` for issue 40), `TrigTable::cos`/`sin`, `ScaleRange::min`/`max`,
 //! `config::align_points` and `icp_points` were added for issue 14 item 2
 //! (checked by name against `grep 'pub (const )?fn' src`). Each group of calls sits in its own
 //! `#[inline(never)]` function named `entry_*`, so a remaining panic path can
@@ -139,7 +140,11 @@ fn entry_estimator<
     }
     opaque(e.scale_search());
     opaque(e.thresholds());
-    let reference = e.reference(g1);
+    let mut reference = e.reference(g1);
+    // In place over the reference of the other grid, and back.
+    e.reference_in_place(g2, &mut reference);
+    opaque(&reference);
+    e.reference_in_place(g1, &mut reference);
     opaque(reference.grid());
     for cell in reference.grid().occupied_cells() {
         opaque(cell);
@@ -282,6 +287,9 @@ fn entry_votes<
     opaque(table.cos(opaque(0)));
     opaque(table.sin(opaque(0)));
     let prepared = Reference::<W, H, RW, HALF, RHO>::prepare::<N>(grid, opaque_kind(), &mut pair);
+    let mut in_place = Reference::<W, H, RW, HALF, RHO>::empty(opaque_kind());
+    in_place.prepare_in_place::<N>(grid, opaque_kind(), &mut pair);
+    opaque(&in_place);
     opaque(prepared.profiles());
     opaque(prepared.occupied());
     opaque(prepared.signature());
