@@ -326,19 +326,15 @@ impl<const W: usize, const H: usize, const RW: usize, const HALF: usize, const R
             Some(grid) if signature_is_possible(&signature, occupied, W, H) => grid,
             _ => return Err(Error::InvalidReference),
         };
-        #[cfg_attr(not(feature = "reach-tables"), allow(unused_mut))]
-        let mut reference = Self {
+        Ok(Self {
             signature,
             profiles,
             count: count as u8,
             occupied,
-            grid,
             #[cfg(feature = "reach-tables")]
-            reach: ReachTables::EMPTY,
-        };
-        #[cfg(feature = "reach-tables")]
-        reference.reach.build(&reference.grid);
-        Ok(reference)
+            reach: ReachTables::of(&grid),
+            grid,
+        })
     }
 }
 

@@ -71,33 +71,20 @@ impl<const W: usize, const H: usize, const RW: usize> ReachTables<W, H, RW> {
     /// a level. A `const fn`: a reference parsed at compile time carries
     /// its tables in flash.
     pub(crate) const fn build(&mut self, grid: &Grid<W, H, RW>) {
-        let words = grid.words();
-        let first = &mut self.levels[0];
-        let mut r = 0;
-        while r < H {
-            first[r] = words[r];
-            r += 1;
-        }
-        // Squares of side 2 and 3 (level 0) from the grid, then each level
-        // up to the first with a table.
-        grow(first, 1);
-        grow(first, 1);
+        // Squares of side 2 and 3 (level 0) from the grid, grown in the
+        // first table up to its level.
+        copy_rows(&mut self.levels[0], grid.words());
+        grow(&mut self.levels[0], 1);
+        grow(&mut self.levels[0], 1);
         let mut k = 1;
-        while k <= FIRST_TABLE_LEVEL {
-            grow(first, 1 << (k - 1));
-            k += 1;
-        }
-        let mut k = FIRST_TABLE_LEVEL + 1;
         while k <= EXACT_LEVELS {
-            let (below, level) = self.levels.split_at_mut(k - FIRST_TABLE_LEVEL);
-            let level = &mut level[0];
-            let below = &below[k - FIRST_TABLE_LEVEL - 1];
-            let mut r = 0;
-            while r < H {
-                level[r] = below[r];
-                r += 1;
+            // Each level past the first with a table starts from the one below.
+            let table = k.saturating_sub(FIRST_TABLE_LEVEL);
+            if k > FIRST_TABLE_LEVEL {
+                let (below, level) = self.levels.split_at_mut(table);
+                copy_rows(&mut level[0], &below[table - 1]);
             }
-            grow(level, 1 << (k - 1));
+            grow(&mut self.levels[table], 1 << (k - 1));
             k += 1;
         }
     }
@@ -132,6 +119,18 @@ const fn grow<const RW: usize, const H: usize>(a: &mut [[u32; RW]; H], step: usi
             a[r][w] = bits;
             w += 1;
         }
+        r += 1;
+    }
+}
+
+/// Copies `from` into `to` a row at a time (no grid-sized temporary).
+const fn copy_rows<const RW: usize, const H: usize>(
+    to: &mut [[u32; RW]; H],
+    from: &[[u32; RW]; H],
+) {
+    let mut r = 0;
+    while r < H {
+        to[r] = from[r];
         r += 1;
     }
 }

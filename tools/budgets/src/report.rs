@@ -59,14 +59,10 @@ const BENCHES: usize = 8;
 /// Time limit of one firmware run.
 const RUN_TIMEOUT: Duration = Duration::from_secs(60);
 
-/// Features measured besides the default, at 128² and N_θ = 360: the
-/// library without the reference's reach tables.
-pub const EXTRA_FEATURES: &str = WITHOUT_TABLES;
-
 /// The configurations: each side with `N_THETA` = 360 and the two ends of the
 /// paper's recommended range (`hough_heading::config::recommended_n_theta`; the upper
 /// end is exclusive, so the largest even value below it), and 128², 360
-/// with [`EXTRA_FEATURES`].
+/// with [`WITHOUT_TABLES`].
 pub fn configs() -> Vec<Config> {
     let mut out = Vec::new();
     for side in SIDES {
@@ -90,7 +86,7 @@ pub fn configs() -> Vec<Config> {
         side: 128,
         n_theta: 360,
         choice: "360",
-        features: EXTRA_FEATURES,
+        features: WITHOUT_TABLES,
     });
     out
 }
@@ -414,8 +410,8 @@ pub fn measure(paths: &Paths, only: Option<&str>) -> Result<Measured, Error> {
         // The real scan pairs (`examples/real_scans.rs`): with the target's
         // features, and without the reach tables where RAM would hold them.
         let mut real_features = vec![target.features];
-        if target.ram >= 1 << 20 && target.features != EXTRA_FEATURES {
-            real_features.push(EXTRA_FEATURES);
+        if target.ram >= 1 << 20 && target.features != WITHOUT_TABLES {
+            real_features.push(WITHOUT_TABLES);
         }
         for features in real_features {
             let key = real::key(features);
