@@ -115,7 +115,7 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
             .then(Trajectory::default),
         chain: args
             .chained()
-            .then(|| Chain::new(args.prior_sigma(), args.pairs() != PairsArg::Keyframes)),
+            .then(|| Chain::new(args.prior_sigma, args.pairs() != PairsArg::Keyframes)),
         stdout_closed: false,
         bar: bar.clone(),
     };

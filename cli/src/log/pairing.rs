@@ -6,6 +6,7 @@ use std::collections::VecDeque;
 use std::io::{self, BufWriter, Write};
 use std::sync::Arc;
 
+use hough_heading::odometry::Against;
 use hough_heading::{Angle, Mode, Prior};
 use hough_heading_recordings::engine::Engine;
 use hough_heading_recordings::line::OutputLine;
@@ -17,7 +18,7 @@ use indicatif::ProgressBar;
 use serde::Serialize;
 
 use super::args::{LogArgs, PairsArg, PriorArg};
-use super::chain::{Chain, ChainLine};
+use super::chain::{Chain, ChainLine, Offer};
 use crate::jobs::Workers;
 use crate::summary::{Method, Summary};
 
@@ -206,39 +207,96 @@ impl Run<'_> {
         Ok(())
     }
 
-    /// Adds an estimated pair to the chain, if the run has one: the pair is
-    /// estimated again with the motion prior when the chain wants it. The
-    /// result (that one, then) and what the chain made of it.
-    fn chain(
-        &mut self,
-        job: &PairJob,
-        result: PairResult,
-    ) -> (PairResult, Option<(ChainLine, Pose)>) {
-        let Some(chain) = &self.chain else {
+    /// Estimates one pair now, on the first worker.
+    fn estimate_one(&mut self, a: &Kept, b: &Kept, prior: Option<Prior>) -> PairResult {
+        let pair = PairRecord {
+            scan1: a.1.record.clone(),
+            scan2: b.1.record.clone(),
+        };
+        let (options, mode) = (self.options, self.mode);
+        self.workers
+            .map(std::slice::from_ref(&pair), |engine, _, pair| {
+                scans::estimate_with_prior(engine.as_mut(), pair, &options, &[mode], prior)
+            })
+            .pop()
+            .unwrap_or_else(|| Err("no worker".into()))
+    }
+
+    /// Places the pair's second scan in the chain, if the run has one: it
+    /// is estimated against each stored scan the chain names (the pair's
+    /// own estimate where that is its first scan), again with the motion
+    /// prior when the chain wants it, until one places it. The pair's
+    /// result (again with the prior, when the chain made that) and what
+    /// the chain made of the scan.
+    fn chain(&mut self, job: &PairJob, result: PairResult) -> (PairResult, Option<(ChainLine, Pose)>) {
+        let Some(mut chain) = self.chain.take() else {
             return (result, None);
         };
-        let prior = result.as_ref().ok().and_then(|e| chain.prior_for(&e[0]));
-        let result = match prior {
-            Some(prior) => {
-                let (options, mode) = (self.options, self.mode);
-                let again = self
-                    .workers
-                    .map(std::slice::from_ref(job), |engine, _, job| {
-                        scans::estimate_with_prior(
-                            engine.as_mut(),
-                            &job.pair,
-                            &options,
-                            &[mode],
-                            Some(prior),
-                        )
-                    });
-                again.into_iter().next().unwrap_or(result)
+        let mut line = result;
+        let mut guess: Option<(Against, Vec<scans::PairEstimate>, Option<Prior>, Option<Pose>)> =
+            None;
+        let mut placed = None;
+        'attempts: for (against, stored) in chain.attempts(&job.b) {
+            let odom = stored.1.odom.zip(job.b.1.odom).map(|(p, q)| p.between(&q));
+            let own = stored.0 == job.a.0;
+            let first = if own {
+                line.clone()
+            } else {
+                self.estimate_one(&stored, &job.b, None)
+            };
+            let prior = first
+                .as_ref()
+                .ok()
+                .and_then(|e| chain.prior_for(against, &e[0]));
+            let mut tries = vec![(first, None)];
+            if let Some(prior) = prior {
+                tries.push((self.estimate_one(&stored, &job.b, Some(prior)), Some(prior)));
             }
-            None => result,
-        };
-        let chain = self.chain.as_mut().expect("checked above");
-        let added = chain.add(&job.b, result.as_ref().ok().map(|e| &e[0]), prior, job.odom);
-        (result, Some(added))
+            for (result, prior) in tries {
+                if own && prior.is_some() {
+                    line = result.clone();
+                }
+                let Ok(estimates) = result else { continue };
+                let offer = Offer {
+                    against,
+                    estimate: &estimates[0],
+                    prior,
+                };
+                if let Some(added) = chain.offer(&job.b, &offer, odom) {
+                    placed = Some(added);
+                    break 'attempts;
+                }
+                if against == Against::Keyframe {
+                    guess = Some((against, estimates, prior, odom));
+                }
+            }
+        }
+        let added = placed.unwrap_or_else(|| {
+            let offer = guess.as_ref().map(|(against, e, prior, odom)| {
+                (
+                    Offer {
+                        against: *against,
+                        estimate: &e[0],
+                        prior: *prior,
+                    },
+                    *odom,
+                )
+            });
+            // The pair's own estimate, when its first scan is the one just
+            // before (consecutive pairs).
+            let previous = line
+                .as_ref()
+                .ok()
+                .filter(|_| job.b.0 == job.a.0 + self.args.every)
+                .map(|e| (&e[0], job.odom));
+            chain.unplaced(
+                &job.b,
+                previous,
+                offer.as_ref().map(|(o, odom)| (o, *odom)),
+            )
+        });
+        self.chain = Some(chain);
+        (line, Some(added))
     }
 
     /// Writes one estimated pair's line, and adds it to the trajectory and
@@ -373,7 +431,7 @@ fn stream_pairs(
             PairsArg::Keyframes => {
                 // Each pair waits for the one before: its keyframe and
                 // prior come from that pair's estimate.
-                match run.chain.as_ref().and_then(|c| c.keyframe.clone()) {
+                match run.chain.as_ref().and_then(|c| c.keyframe().cloned()) {
                     Some(keyframe) => {
                         run.pair(&keyframe, &current)?;
                         run.flush()?;
