@@ -12,19 +12,23 @@
 //! 2. estimates it against the keyframe's reference (`Estimator::
 //!    estimate_scans`, verification and free space), checks the estimate on
 //!    the beams (`Raster::check_on_beams`);
-//! 3. when the chain wants it (a flagged answer, or one beyond 3σ of the
-//!    damped constant-velocity prediction: `KeyframeOdometry::wants_prior`),
-//!    estimates again with the motion prior, the beam check judging only
-//!    rivals the prior allows (`BeamCheck::given`);
+//! 3. when the answer is flagged (`KeyframeOdometry::wants_prior`),
+//!    estimates again with the damped constant-velocity motion prior, the
+//!    beam check judging only rivals the prior allows (`BeamCheck::given`);
 //! 4. refines the answer on the beams, turns it into the robot's motion
-//!    (`Raster::motion`) and adds it to the chain
-//!    (`KeyframeOdometry::update`); a new keyframe rebuilds the reference
-//!    from this scan.
+//!    (`Raster::motion`) and offers it to the chain
+//!    (`KeyframeOdometry::place`: only a confident answer places the scan;
+//!    otherwise `leave_unplaced` keeps it out of the chain, and the next
+//!    scan is tried against the same keyframe); a new keyframe rebuilds the
+//!    reference from this scan. This firmware keeps one stored scan, the
+//!    keyframe: it offers no estimate against the last placed scan or the
+//!    previous keyframe (the tool does).
 //!
-//! It logs one line per scan (source, keyframe, heading) and exits through
-//! semihosting with status 0 when the chained heading ends within 2° of the
-//! truth (−105.24°, the sum of the pair file's gmapping-corrected turns) and
-//! no step fell back on the prediction, 1 otherwise, 2 on a malformed
+//! It logs one line per scan (source, keyframe, heading, heading σ) and
+//! exits through semihosting with status 0 when the chained heading ends
+//! within 2° of the truth (−105.24°, the sum of the pair file's
+//! gmapping-corrected turns) and every scan was placed by an estimate, 1
+//! otherwise, 2 on a malformed
 //! stream. RAM: the keyframe's scan (1.5 KiB), two grids and two free-space
 //! grids (8 KiB), the reference (`reference!(128, 128, 360)`) and the
 //! estimator, on the stack: the Cortex-M4F (MPS2 AN386) runs it under QEMU
@@ -43,7 +47,7 @@ mod pairs;
 
 #[cfg(target_os = "none")]
 mod firmware {
-    use hough_heading::odometry::{KeyframeOdometry, KeyframeSettings, StepSource};
+    use hough_heading::odometry::{Against, KeyframeOdometry, KeyframeSettings, StepSource};
     use hough_heading::{
         estimator, grid, Estimate, FreeSpace, Mode, Raster, Scan, SensorOffset, Thresholds,
     };
@@ -126,6 +130,11 @@ mod firmware {
         raster.free_space(scan, free);
     }
 
+    /// The step was made by an estimate (confident, or made so by the prior).
+    fn from_estimate(source: StepSource) -> bool {
+        matches!(source, StepSource::Estimate | StepSource::Prior)
+    }
+
     fn fail(message: &str) -> ! {
         defmt::println!("error {=str}", message);
         support::exit(EXIT_BAD_INPUT)
@@ -162,7 +171,7 @@ mod firmware {
         let mut reference = estimator.reference(&key_grid);
         let mut chain = KeyframeOdometry::new(KeyframeSettings::default());
         chain.start();
-        let mut predicted = 0u32;
+        let mut not_estimated = 0u32;
         for pair in 0..count {
             if pair > 0 {
                 // Skip the pair's index and its first scan (the last scan).
@@ -190,36 +199,52 @@ mod firmware {
                 }
                 estimate
             };
-            let mut estimate = judge(
+            let to_motion = |estimate: &Estimate| {
+                let (alpha, translation) = match estimate
+                    .translation
+                    .map(|t| raster.refine_on_beams(&key_scan, &scan, estimate.alpha, &t))
+                {
+                    Some(Ok(fit)) => (fit.alpha, Some(fit.translation)),
+                    _ => (estimate.alpha, estimate.translation),
+                };
+                raster.motion(alpha, translation.as_ref())
+            };
+            let estimate = judge(
                 estimator.estimate_scans(&reference, &grid, &views, None),
                 None,
             );
-            let prior = chain
-                .wants_prior(&estimate)
-                .then(|| chain.prior())
-                .flatten();
-            if prior.is_some() {
-                estimate = judge(
+            let motion = to_motion(&estimate);
+            // The answer made with the prior first when the chain wants it;
+            // the original still places the scan if it is confident.
+            let mut step = None;
+            let mut guess = None;
+            let mut contradicted = false;
+            if chain.wants_prior(Against::Keyframe, &estimate) {
+                let prior = chain.prior(Against::Keyframe);
+                let again = judge(
                     estimator.estimate_scans(&reference, &grid, &views, prior),
                     prior,
                 );
+                let again_motion = to_motion(&again);
+                step = chain.place(Against::Keyframe, &again, &again_motion, true);
+                contradicted = chain.contradicts(Against::Keyframe, &again);
+                guess = Some((again, again_motion));
             }
-            let (alpha, translation) = match estimate
-                .translation
-                .map(|t| raster.refine_on_beams(&key_scan, &scan, estimate.alpha, &t))
-            {
-                Some(Ok(fit)) => (fit.alpha, Some(fit.translation)),
-                _ => (estimate.alpha, estimate.translation),
-            };
-            let motion = raster.motion(alpha, translation.as_ref());
-            let step = chain.update(Some((&estimate, &motion)), prior.is_some());
-            predicted += u32::from(step.source == StepSource::Predicted);
+            if step.is_none() && !contradicted {
+                step = chain.place(Against::Keyframe, &estimate, &motion, false);
+            }
+            let guess = guess.unwrap_or((estimate, motion));
+            let step = step.unwrap_or_else(|| {
+                chain.leave_unplaced(None, Some((Against::Keyframe, &guess.0, &guess.1)))
+            });
+            not_estimated += u32::from(!from_estimate(step.source));
             defmt::println!(
-                "scan {=u32} source={=str} keyframe={=bool} heading_mdeg={=i32}",
+                "scan {=u32} source={=str} keyframe={=bool} heading_mdeg={=i32} sigma_mdeg={=i32}",
                 pair + 1,
                 step.source.name(),
                 step.new_keyframe,
-                support::millidegrees(step.pose.heading)
+                support::millidegrees(step.pose.heading),
+                (step.heading_sigma_deg * 1000.0) as i32
             );
             if step.new_keyframe {
                 core::mem::swap(&mut keyframe, &mut current);
@@ -233,12 +258,12 @@ mod firmware {
         }
         let error = (support::millidegrees(chain.pose().heading) - TRUE_TURN_MDEG).abs();
         defmt::println!(
-            "done scans={=u32} heading_error_mdeg={=i32} predicted={=u32}",
+            "done scans={=u32} heading_error_mdeg={=i32} not_estimated={=u32}",
             count + 1,
             error,
-            predicted
+            not_estimated
         );
-        support::exit(i32::from(error > TOLERANCE_MDEG || predicted > 0))
+        support::exit(i32::from(error > TOLERANCE_MDEG || not_estimated > 0))
     }
 }
 

@@ -11,9 +11,10 @@
 //! * places a scan only by a **confident** estimate: against the
 //!   **keyframe** first, then the **last placed** scan, then the
 //!   **previous keyframe** ([`KeyframeOdometry::attempts`]); a flagged
-//!   estimate may be made again with the damped constant-velocity
-//!   [`prior`](KeyframeOdometry::prior) and is taken when that makes it
-//!   confident ([`StepSource::Prior`]);
+//!   estimate, or a confident one beyond 3σ of the damped
+//!   constant-velocity [`prior`](KeyframeOdometry::prior), may be made
+//!   again with that prior and is taken when that is confident
+//!   ([`StepSource::Prior`]);
 //! * leaves a scan that none of them places **unplaced**
 //!   ([`StepSource::Unplaced`]): its pose is the prediction, with the
 //!   prior's σ, and it never becomes a keyframe: the next scans are tried
@@ -330,7 +331,9 @@ impl KeyframeOdometry {
             .previous_keyframe
             .is_some()
             .then_some(Against::PreviousKeyframe);
-        [Some(Against::Keyframe), last, previous].into_iter().flatten()
+        [Some(Against::Keyframe), last, previous]
+            .into_iter()
+            .flatten()
     }
 
     fn stored(&self, against: Against) -> Placed {
@@ -384,11 +387,30 @@ impl KeyframeOdometry {
         })
     }
 
-    /// Whether `estimate` (of the next scan) should be made again with
-    /// [`prior`](Self::prior): it is not confident and the chain has a step
-    /// to predict from.
-    pub fn wants_prior(&self, estimate: &Estimate) -> bool {
-        self.velocity.is_some() && estimate.status != Status::Confident
+    /// Whether `estimate` (of the next scan against `against`) should be
+    /// made again with [`prior`](Self::prior) and offered first: it is not
+    /// confident, or its rotation lies beyond 3σ of the prediction (then the
+    /// answer made with the prior is taken if it is confident, else this
+    /// one: a confident answer is never replaced by a guess). Never before
+    /// the chain has a step.
+    pub fn wants_prior(&self, against: Against, estimate: &Estimate) -> bool {
+        let Some(prior) = self.prior(against) else {
+            return false;
+        };
+        let gate = Angle(prior.sigma.0.saturating_mul(3));
+        estimate.status != Status::Confident || estimate.alpha.distance(prior.alpha) > gate
+    }
+
+    /// Whether `with_prior` (the next scan against `against`, made with
+    /// [`prior`](Self::prior)) contradicts a confident answer beyond 3σ
+    /// of the prediction: its own rotation lies within 3σ. Then neither is
+    /// placed (on the shared freiburg-campus log such confident answers
+    /// were half turns, the prior's low-overlap answers right), and the scan
+    /// is left unplaced with `with_prior` as the guess.
+    pub fn contradicts(&self, against: Against, with_prior: &Estimate) -> bool {
+        self.prior(against).is_some_and(|prior| {
+            with_prior.alpha.distance(prior.alpha) <= Angle(prior.sigma.0.saturating_mul(3))
+        })
     }
 
     /// Offers an `estimate` of the next scan against `against` that gave
@@ -457,9 +479,8 @@ impl KeyframeOdometry {
         }
         let prior_sigma = self.settings.prior_sigma.to_degrees();
         let step = self.settings.step_sigma_deg;
-        let follows = previous.filter(|(e, m)| {
-            self.unplaced > 0 && e.status == Status::Confident && finite(m)
-        });
+        let follows = previous
+            .filter(|(e, m)| self.unplaced > 0 && e.status == Status::Confident && finite(m));
         let (hypothesis, against) = match follows {
             Some((_, m)) => (
                 Placed {
@@ -475,10 +496,12 @@ impl KeyframeOdometry {
                     self.last_placed.variance
                 };
                 let variance = base + prior_sigma * prior_sigma;
-                let guessed = guess.filter(|(_, _, m)| finite(m)).and_then(|(against, _, m)| {
-                    let pose = self.stored(against).pose.compose(&RobotPose::of_motion(m));
-                    self.within_gate(pose.heading).then_some((against, pose))
-                });
+                let guessed = guess
+                    .filter(|(_, _, m)| finite(m))
+                    .and_then(|(against, _, m)| {
+                        let pose = self.stored(against).pose.compose(&RobotPose::of_motion(m));
+                        self.within_gate(pose.heading).then_some((against, pose))
+                    });
                 match guessed {
                     Some((against, pose)) => (Placed { pose, variance }, Some(against)),
                     None => (
@@ -521,7 +544,12 @@ impl KeyframeOdometry {
         new_keyframe: bool,
     ) -> Step {
         let intervals = self.unplaced + 1;
-        self.velocity = Some(self.last_placed.pose.between(&placed.pose).divided(intervals));
+        self.velocity = Some(
+            self.last_placed
+                .pose
+                .between(&placed.pose)
+                .divided(intervals),
+        );
         self.unplaced = 0;
         self.last_placed = placed;
         self.last_is_keyframe = new_keyframe;
@@ -597,7 +625,11 @@ mod tests {
     fn the_prior_repeats_half_the_last_turn() {
         let mut chain = KeyframeOdometry::new(KeyframeSettings::default());
         assert_eq!(chain.start().source, StepSource::Start);
-        assert_eq!(chain.prior(Against::Keyframe), None, "nothing to predict from yet");
+        assert_eq!(
+            chain.prior(Against::Keyframe),
+            None,
+            "nothing to predict from yet"
+        );
         let (e, m) = step(20.0, Status::Confident, 0.9);
         let s = chain.place(Against::Keyframe, &e, &m, false).unwrap();
         assert_eq!(s.source, StepSource::Estimate);
@@ -622,7 +654,7 @@ mod tests {
         chain.place(Against::Keyframe, &e, &m, false).unwrap();
         // Flagged: not placed, whatever its answer.
         let (e, m) = step(-170.0, Status::LowOverlap, 0.2);
-        assert!(chain.wants_prior(&e));
+        assert!(chain.wants_prior(Against::Keyframe, &e));
         assert_eq!(chain.place(Against::Keyframe, &e, &m, true), None);
         let s = chain.leave_unplaced(None, Some((Against::Keyframe, &e, &m)));
         assert_eq!(s.source, StepSource::Unplaced);
@@ -657,6 +689,11 @@ mod tests {
         fresh.start();
         let (e0, m0) = step(0.0, Status::Confident, 0.9);
         fresh.place(Against::Keyframe, &e0, &m0, false).unwrap();
+        assert!(
+            fresh.wants_prior(Against::Keyframe, &e),
+            "145° is beyond 3σ of 0°"
+        );
+        assert!(!fresh.wants_prior(Against::Keyframe, &e0));
         assert!(fresh.place(Against::Keyframe, &e, &m, false).is_some());
     }
 
@@ -669,7 +706,10 @@ mod tests {
         let (f, fm) = step(30.0, Status::LowOverlap, 0.2);
         // First unplaced: the guess is within 3σ (30°) of the prediction (2°).
         let s = chain.leave_unplaced(None, Some((Against::Keyframe, &f, &fm)));
-        assert_eq!((s.source, s.against), (StepSource::Unplaced, Some(Against::Keyframe)));
+        assert_eq!(
+            (s.source, s.against),
+            (StepSource::Unplaced, Some(Against::Keyframe))
+        );
         assert!((heading(&s) - 34.0).abs() < 0.01);
         let sigma = s.heading_sigma_deg;
         // Second: nothing places it, but it follows the first by a confident
@@ -688,17 +728,40 @@ mod tests {
         let mut chain = KeyframeOdometry::new(KeyframeSettings::default());
         chain.start();
         let (e, m) = step(10.0, Status::Confident, 0.9);
-        assert!(!chain.place(Against::Keyframe, &e, &m, false).unwrap().new_keyframe);
+        assert!(
+            !chain
+                .place(Against::Keyframe, &e, &m, false)
+                .unwrap()
+                .new_keyframe
+        );
         let (e, m) = step(35.0, Status::Confident, 0.9);
-        assert!(chain.place(Against::Keyframe, &e, &m, false).unwrap().new_keyframe, "35° > 30°");
+        assert!(
+            chain
+                .place(Against::Keyframe, &e, &m, false)
+                .unwrap()
+                .new_keyframe,
+            "35° > 30°"
+        );
         let (e, m) = step(0.0, Status::Confident, 0.5);
-        assert!(chain.place(Against::Keyframe, &e, &m, false).unwrap().new_keyframe, "0.5 < 0.6");
+        assert!(
+            chain
+                .place(Against::Keyframe, &e, &m, false)
+                .unwrap()
+                .new_keyframe,
+            "0.5 < 0.6"
+        );
         let (e, _) = step(0.0, Status::Confident, 0.9);
         let far = Motion {
             dtheta: 0.0,
             translation: Some((1.5, 0.0)),
         };
-        assert!(chain.place(Against::Keyframe, &e, &far, false).unwrap().new_keyframe, "1.5 m > 1 m");
+        assert!(
+            chain
+                .place(Against::Keyframe, &e, &far, false)
+                .unwrap()
+                .new_keyframe,
+            "1.5 m > 1 m"
+        );
         assert_eq!(
             chain.attempts().collect::<heapless::Vec<_, 3>>().as_slice(),
             &[Against::Keyframe, Against::PreviousKeyframe]
@@ -710,7 +773,13 @@ mod tests {
         let mut chain = consecutive(0);
         // An offer before start starts the chain.
         let (e, m) = step(1.0, Status::Confident, 0.9);
-        assert_eq!(chain.place(Against::Keyframe, &e, &m, false).unwrap().source, StepSource::Start);
+        assert_eq!(
+            chain
+                .place(Against::Keyframe, &e, &m, false)
+                .unwrap()
+                .source,
+            StepSource::Start
+        );
         let mut last = 0.0;
         for _ in 0..100 {
             let s = chain.place(Against::Keyframe, &e, &m, false).unwrap();
@@ -747,7 +816,10 @@ mod tests {
     fn sqrt_matches_f64() {
         for v in [1e-6f32, 0.0625, 1.0, 2.0, 900.0, 1e6] {
             let r = f64::from(sqrt(v));
-            assert!((r - f64::from(v).sqrt()).abs() <= 1e-6 * f64::from(v).sqrt(), "{v}");
+            assert!(
+                (r - f64::from(v).sqrt()).abs() <= 1e-6 * f64::from(v).sqrt(),
+                "{v}"
+            );
         }
         assert_eq!(sqrt(-1.0), 0.0);
         assert_eq!(sqrt(f32::NAN), 0.0);

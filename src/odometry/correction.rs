@@ -147,10 +147,16 @@ mod tests {
         assert!(c.is_empty());
         // A keyframe no more uncertain than the anchor gets no correction.
         assert!(c.push(2.0));
-        assert_eq!(c.spread(Angle::from_degrees(10.0), 0.0).next(), Some(Angle::ZERO));
+        assert_eq!(
+            c.spread(Angle::from_degrees(10.0), 0.0).next(),
+            Some(Angle::ZERO)
+        );
         // Non-finite σ counts as 0.
         c.anchor(f32::NAN);
         assert!(c.push(f32::INFINITY));
-        assert_eq!(c.spread(Angle::from_degrees(10.0), 0.0).next(), Some(Angle::ZERO));
+        assert_eq!(
+            c.spread(Angle::from_degrees(10.0), 0.0).next(),
+            Some(Angle::ZERO)
+        );
     }
 }

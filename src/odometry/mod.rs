@@ -32,8 +32,8 @@ mod correction;
 mod pose;
 
 pub use chain::{
-    prior_sigma_for_interval, Against, DENSE_INTERVAL_S, KeyframeOdometry, KeyframeSettings, Step, StepSource,
-    MAX_TURN_RATE_DEG_S, TURN_KEPT_DIVISOR,
+    prior_sigma_for_interval, Against, KeyframeOdometry, KeyframeSettings, Step, StepSource,
+    DENSE_INTERVAL_S, MAX_TURN_RATE_DEG_S, TURN_KEPT_DIVISOR,
 };
 pub use correction::{HeadingCorrection, MAX_CORRECTED_KEYFRAMES};
 pub use pose::RobotPose;

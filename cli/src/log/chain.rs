@@ -175,9 +175,15 @@ impl Chain {
     /// `estimate` wants one.
     pub fn prior_for(&self, against: Against, estimate: &PairEstimate) -> Option<Prior> {
         self.odometry
-            .wants_prior(&estimate.estimate)
+            .wants_prior(against, &estimate.estimate)
             .then(|| self.odometry.prior(against))
             .flatten()
+    }
+
+    /// `with_prior` contradicts an answer that wanted the prior
+    /// ([`KeyframeOdometry::contradicts`]).
+    pub fn contradicts(&self, against: Against, with_prior: &PairEstimate) -> bool {
+        self.odometry.contradicts(against, &with_prior.estimate)
     }
 
     /// The robot's motion of `estimate` (the odometry's translation along a
@@ -238,9 +244,9 @@ impl Chain {
         // The candidate's own f64 motion when the chain carried it, else the
         // library's prediction from the last placed scan.
         let taken = match (step.against, &deltas) {
-            (Some(a), Some((o, (d, _)))) if o.against == a => {
-                self.stored(a).map(|s| (s.pose.compose(d), s.scan.0, o.prior))
-            }
+            (Some(a), Some((o, (d, _)))) if o.against == a => self
+                .stored(a)
+                .map(|s| (s.pose.compose(d), s.scan.0, o.prior)),
             _ => None,
         };
         let (pose, from_scan, prior) = taken.unwrap_or_else(|| {

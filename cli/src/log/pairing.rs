@@ -224,17 +224,25 @@ impl Run<'_> {
 
     /// Places the pair's second scan in the chain, if the run has one: it
     /// is estimated against each stored scan the chain names (the pair's
-    /// own estimate where that is its first scan), again with the motion
+    /// own estimate where that is its first scan), first with the motion
     /// prior when the chain wants it, until one places it. The pair's
-    /// result (again with the prior, when the chain made that) and what
-    /// the chain made of the scan.
-    fn chain(&mut self, job: &PairJob, result: PairResult) -> (PairResult, Option<(ChainLine, Pose)>) {
+    /// result (the one the chain took, or the one made with the prior) and
+    /// what the chain made of the scan.
+    fn chain(
+        &mut self,
+        job: &PairJob,
+        result: PairResult,
+    ) -> (PairResult, Option<(ChainLine, Pose)>) {
         let Some(mut chain) = self.chain.take() else {
             return (result, None);
         };
         let mut line = result;
-        let mut guess: Option<(Against, Vec<scans::PairEstimate>, Option<Prior>, Option<Pose>)> =
-            None;
+        let mut guess: Option<(
+            Against,
+            Vec<scans::PairEstimate>,
+            Option<Prior>,
+            Option<Pose>,
+        )> = None;
         let mut placed = None;
         'attempts: for (against, stored) in chain.attempts(&job.b) {
             let odom = stored.1.odom.zip(job.b.1.odom).map(|(p, q)| p.between(&q));
@@ -248,26 +256,40 @@ impl Run<'_> {
                 .as_ref()
                 .ok()
                 .and_then(|e| chain.prior_for(against, &e[0]));
-            let mut tries = vec![(first, None)];
+            // The answer made with the prior first, when the chain wants
+            // one: the original still places the scan if it is confident.
+            let mut tries = Vec::new();
+            let mut contradicted = false;
             if let Some(prior) = prior {
-                tries.push((self.estimate_one(&stored, &job.b, Some(prior)), Some(prior)));
+                let again = self.estimate_one(&stored, &job.b, Some(prior));
+                contradicted = again
+                    .as_ref()
+                    .is_ok_and(|e| chain.contradicts(against, &e[0]));
+                tries.push((again, Some(prior)));
+            }
+            if !contradicted {
+                tries.push((first, None));
             }
             for (result, prior) in tries {
                 if own && prior.is_some() {
                     line = result.clone();
                 }
-                let Ok(estimates) = result else { continue };
+                let Ok(estimates) = &result else { continue };
                 let offer = Offer {
                     against,
                     estimate: &estimates[0],
                     prior,
                 };
                 if let Some(added) = chain.offer(&job.b, &offer, odom) {
+                    // The line shows the answer the chain took.
+                    if own {
+                        line = result.clone();
+                    }
                     placed = Some(added);
                     break 'attempts;
                 }
-                if against == Against::Keyframe {
-                    guess = Some((against, estimates, prior, odom));
+                if against == Against::Keyframe && guess.is_none() {
+                    guess = Some((against, estimates.clone(), prior, odom));
                 }
             }
         }
@@ -289,11 +311,7 @@ impl Run<'_> {
                 .ok()
                 .filter(|_| job.b.0 == job.a.0 + self.args.every)
                 .map(|e| (&e[0], job.odom));
-            chain.unplaced(
-                &job.b,
-                previous,
-                offer.as_ref().map(|(o, odom)| (o, *odom)),
-            )
+            chain.unplaced(&job.b, previous, offer.as_ref().map(|(o, odom)| (o, *odom)))
         });
         self.chain = Some(chain);
         (line, Some(added))
