@@ -134,6 +134,7 @@ mod grid;
 mod math;
 mod motion;
 pub mod odometry;
+pub mod place;
 mod pose;
 mod profile;
 mod reference;

@@ -4,6 +4,7 @@
 //! every grid size × θ resolution the tool offers is compiled in separately;
 //! [`engine`] picks one at run time.
 
+use hough_heading::place::place_similarity;
 use hough_heading::{
     config::half_turn_steps, config::pyramid_words, config::rho_bins, config::row_words,
     stages::Accumulator, stages::Correlation, stages::PeakKind, stages::Signature, Estimate,
@@ -87,6 +88,12 @@ pub trait Engine: Send {
     fn estimate_with_prior(&mut self, mode: Mode, prior: Option<Prior>) -> Estimate;
     /// Accumulators, signatures and correlation of the two grids (for plots).
     fn figures(&self, mode: Mode) -> Figures;
+    /// The improved mode's signature `D(θ)` of `view` (θ over the half
+    /// circle): its place descriptor (`hough_heading::place`).
+    fn place_signature(&mut self, view: View) -> Vec<u16>;
+    /// `hough_heading::place::place_similarity` of two signatures of this
+    /// configuration, in [−1, 1]; 0 when either has another length.
+    fn place_similarity(&self, a: &[u16], b: &[u16]) -> f64;
     /// The bytes of `view` as a stored scan reference (`ScanReference`, the
     /// improved mode's reference with the view's free space, `raster` and
     /// `scan`, the scan the view was rasterized from: at most
@@ -180,6 +187,18 @@ impl<
         let mut bytes = vec![0; stored.byte_len()];
         stored.to_bytes(&mut bytes).map_err(|e| e.to_string())?;
         Ok(bytes)
+    }
+
+    fn place_signature(&mut self, view: View) -> Vec<u16> {
+        let reference = self.improved.reference(&self.grids[view.index()]);
+        reference.signature().peaks().to_vec()
+    }
+
+    fn place_similarity(&self, a: &[u16], b: &[u16]) -> f64 {
+        if a.len() != HALF || b.len() != HALF {
+            return 0.0;
+        }
+        place_similarity::<HALF>(&signature_array(a), &signature_array(b)).to_num()
     }
 
     fn rasterize(&mut self, view: View, scan: &Scan<'_>, raster: &Raster) -> ScanStats {
