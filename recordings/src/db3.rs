@@ -6,7 +6,8 @@
 //! (a split bag, its files in order: [`crate::bagdir`]), or one `.db3` file
 //! given by itself. In each file, the `messages` of the two topics are read
 //! in time order (then by row id), a page of rows at a time, so memory holds
-//! one page. The files are opened read-only. Payloads are CDR, decoded as for MCAP bags
+//! one page. The files are opened read-only and immutable ([`open`]): reading
+//! leaves the bag's directory as it was. Payloads are CDR, decoded as for MCAP bags
 //! ([`crate::ros2`]); a message's time is its header stamp (the bag's
 //! receive time when the stamp is zero).
 
@@ -26,12 +27,44 @@ pub const MAGIC: &[u8] = b"SQLite format 3\0";
 /// Rows read from the database at a time.
 const PAGE: i64 = 256;
 
+/// Opens `path` read-only and immutable (an SQLite URI with `mode=ro` and
+/// `immutable=1`): SQLite then takes no lock and writes nothing beside the
+/// file (no `-shm`, no `-wal`), so a bag on a read-only medium reads, and a
+/// bag read is left as it was. Immutable means the file must not change
+/// while it is read, as a finished recording does not. A bag whose
+/// recording left a non-empty write-ahead log (`FILE-wal`, rosbag2's
+/// `resilient` preset cut short) holds messages there that an immutable
+/// reader would miss: it is opened read-only only (SQLite may then add its
+/// `-shm` file beside it).
 fn open(path: &Path) -> Result<Connection, String> {
+    let mut wal = path.as_os_str().to_owned();
+    wal.push("-wal");
+    let immutable = std::fs::metadata(&wal).map_or(true, |m| m.len() == 0);
     Connection::open_with_flags(
-        path,
-        OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX,
+        uri(path, immutable),
+        OpenFlags::SQLITE_OPEN_READ_ONLY
+            | OpenFlags::SQLITE_OPEN_URI
+            | OpenFlags::SQLITE_OPEN_NO_MUTEX,
     )
     .map_err(|e| format!("cannot open: {e}"))
+}
+
+/// The read-only (and `immutable`) SQLite URI of `path` (`%`, `?` and `#`,
+/// which a URI's path cannot hold as they are, percent-encoded).
+fn uri(path: &Path, immutable: bool) -> String {
+    let mut out = String::from("file:");
+    for c in path.to_string_lossy().chars() {
+        match c {
+            '%' | '?' | '#' => out.push_str(&format!("%{:02X}", c as u32)),
+            c => out.push(c),
+        }
+    }
+    out.push_str(if immutable {
+        "?mode=ro&immutable=1"
+    } else {
+        "?mode=ro"
+    });
+    out
 }
 
 /// Every topic with messages in the bag's files.

@@ -172,12 +172,13 @@ pub fn open_recording(source: &Source, bar: &ProgressBar) -> Result<Opened, Fata
             (Box::new(reader), Some(topic))
         }
         Format::Ros1 => {
-            let topics = ros1::topics(input, &file)?;
-            let (topic, odom) = choose_topics(source, &file, &topics, BagTypes::ROS1)?;
+            let contents = ros1::contents(input, &file)?;
+            let (topic, odom) = choose_topics(source, &file, &contents.topics, BagTypes::ROS1)?;
             // The topics took one pass; the messages take another.
             bar.reset();
             let input = open(&source.file, bar)?;
-            let reader = ros1::BagReader::new(input, &file, &topic, odom.as_deref());
+            let reader =
+                ros1::BagReader::new(input, &file, &topic, odom.as_deref()).knowing(&contents);
             (Box::new(reader), Some(topic))
         }
         Format::Mcap => {
