@@ -25,6 +25,7 @@
 pub mod answer;
 pub mod bagdir;
 pub mod carmen;
+pub mod chain_report;
 pub mod db3;
 pub mod engine;
 pub mod error;
