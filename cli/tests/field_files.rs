@@ -68,13 +68,19 @@ fn summary_without_reference_poses_reports_the_chain_and_its_odometry() {
         assert!(!err.contains("| subset |"), "{err}");
         let rows = headings(&std::fs::read_to_string(&csv).unwrap());
         assert_eq!(rows.len(), 12);
-        assert!(rows.iter().all(|r| r.1.is_some()), "{bag}: odometry in every row");
+        assert!(
+            rows.iter().all(|r| r.1.is_some()),
+            "{bag}: odometry in every row"
+        );
         assert!(err.contains("| pairs chained | 11 |"), "{err}");
         let turn: f64 = rows
             .windows(2)
             .map(|w| wrap_deg((w[1].0 - w[0].0).to_degrees()))
             .sum();
-        assert!(err.contains(&format!("| chained turn | {turn:.1}° |")), "{err}");
+        assert!(
+            err.contains(&format!("| chained turn | {turn:.1}° |")),
+            "{err}"
+        );
         let within = rows
             .windows(2)
             .filter(|w| {
@@ -116,5 +122,8 @@ fn the_olin_bags_trajectory_carries_its_odometry() {
     let err = stderr(&o);
     assert!(err.contains("no reference poses to score against"), "{err}");
     assert!(err.contains("| pairs chained | 356 |"), "{err}");
-    assert!(err.contains("steps within 2° of the odometry's turn"), "{err}");
+    assert!(
+        err.contains("steps within 2° of the odometry's turn"),
+        "{err}"
+    );
 }

@@ -17,10 +17,7 @@ use std::path::{Path, PathBuf};
 use rusqlite::{Connection, OpenFlags};
 
 use crate::error::{Fatal, RecordError};
-use crate::ros2::{
-    decode_odometry, decode_scan, odometry_item, scan_item, BagItem, TopicInfo, LASER_SCAN,
-    ODOMETRY,
-};
+use crate::ros2::{decode_scan, scan_item, BagItem, TopicInfo, LASER_SCAN, ODOMETRY};
 
 /// The first bytes of an SQLite database.
 pub const MAGIC: &[u8] = b"SQLite format 3\0";
@@ -267,44 +264,54 @@ impl Iterator for BagReader {
     type Item = BagItem;
 
     fn next(&mut self) -> Option<BagItem> {
-        if self.failed {
-            return None;
-        }
-        let row = match self.next_row() {
-            Ok(row) => row?,
-            Err(e) => {
-                self.failed = true;
-                let error = RecordError::new(
-                    format!("after message {}", self.count),
-                    format!("unreadable ROS 2 bag in SQLite (truncated or corrupt file?): {e}"),
-                );
-                return Some(Ok(Err(error)));
+        loop {
+            if self.failed {
+                return None;
             }
-        };
-        self.count += 1;
-        let record = format!("message {}", self.count);
-        let topic = row.topic.as_str();
-        let is_scan = topic == self.topic;
-        let expected = if is_scan { LASER_SCAN } else { ODOMETRY };
-        let (schema, format) = self.type_of(topic);
-        if schema != expected || format != "cdr" {
-            let fatal = Fatal::io(format!(
-                "{}: {record} on topic {topic} is {schema} ({format} encoding); expected \
-                 {expected} (cdr encoding)",
-                self.name
-            ));
-            if is_scan && !self.checked {
-                self.failed = true;
-                return Some(Err(fatal));
+            let row = match self.next_row() {
+                Ok(row) => row?,
+                Err(e) => {
+                    self.failed = true;
+                    let error = RecordError::new(
+                        format!("after message {}", self.count),
+                        format!("unreadable ROS 2 bag in SQLite (truncated or corrupt file?): {e}"),
+                    );
+                    return Some(Ok(Err(error)));
+                }
+            };
+            self.count += 1;
+            let record = format!("message {}", self.count);
+            let topic = row.topic.as_str();
+            let is_scan = topic == self.topic;
+            let expected = if is_scan { LASER_SCAN } else { ODOMETRY };
+            let (schema, format) = self.type_of(topic);
+            let known = if is_scan {
+                schema == LASER_SCAN
+            } else {
+                crate::tf::is_odometry(&schema)
+            };
+            if !known || format != "cdr" {
+                let fatal = Fatal::io(format!(
+                    "{}: {record} on topic {topic} is {schema} ({format} encoding); expected \
+                     {expected} (cdr encoding)",
+                    self.name
+                ));
+                if is_scan && !self.checked {
+                    self.failed = true;
+                    return Some(Err(fatal));
+                }
+                return Some(Ok(Err(RecordError::new(record, fatal.to_string()))));
             }
-            return Some(Ok(Err(RecordError::new(record, fatal.to_string()))));
+            let time = row.time_ns as f64 * 1e-9;
+            let named = format!("{record} (topic {topic})");
+            if is_scan {
+                self.checked = true;
+                return Some(scan_item(decode_scan(&row.data), time, named));
+            }
+            // A transform message without the odometry's transform: the next.
+            if let Some(item) = crate::tf::odometry_message(&schema, &row.data, time, named) {
+                return Some(item);
+            }
         }
-        let time = row.time_ns as f64 * 1e-9;
-        let named = format!("{record} (topic {topic})");
-        if is_scan {
-            self.checked = true;
-            return Some(scan_item(decode_scan(&row.data), time, named));
-        }
-        Some(odometry_item(decode_odometry(&row.data), time, named))
     }
 }

@@ -40,6 +40,7 @@ pub mod pairs;
 pub mod ros1;
 pub mod ros2;
 pub mod stats;
+pub mod tf;
 pub mod trajectory;
 pub mod wire;
 

@@ -271,6 +271,9 @@ pub struct BagTypes {
     pub scan: &'static [&'static str],
     /// The odometry's type.
     pub odometry: &'static str,
+    /// The transforms' type, read as odometry when the bag has no `/odom`
+    /// (ROS 2: [`crate::tf`]).
+    pub transforms: Option<&'static str>,
 }
 
 impl BagTypes {
@@ -278,17 +281,19 @@ impl BagTypes {
     pub const ROS2: Self = Self {
         scan: &[ros2::LASER_SCAN],
         odometry: ros2::ODOMETRY,
+        transforms: Some(crate::tf::TF_MESSAGE),
     };
     /// ROS 1.
     pub const ROS1: Self = Self {
         scan: &[ros1::LASER_SCAN, ros1::MULTI_ECHO_SCAN],
         odometry: ros1::ODOMETRY,
+        transforms: None,
     };
 }
 
 /// The scan topic (`--topic`, or the bag's only scan topic) and the
-/// odometry topic (`--odom-topic`, or `/odom` when it carries odometry) of a
-/// bag whose `topics` were listed.
+/// odometry topic (`--odom-topic`, or `/odom` when it carries odometry, else
+/// `/tf` in a ROS 2 bag) of a bag whose `topics` were listed.
 ///
 /// # Errors
 /// A usage error listing the bag's topics when the scan topic is missing,
@@ -317,7 +322,9 @@ pub fn choose_topics(
     // A scan topic of another type fails at its first message (named).
     let odom = match &args.odom_topic {
         Some(t) => match topics.get(t) {
-            Some(i) if i.schema == types.odometry => Some(t.clone()),
+            Some(i) if i.schema == types.odometry || types.transforms == Some(&i.schema) => {
+                Some(t.clone())
+            }
             Some(i) => {
                 return Err(Fatal::usage(format!(
                     "{file}: topic {t} carries {}, not {}",
@@ -326,10 +333,18 @@ pub fn choose_topics(
             }
             None => return Err(ros2::topic_error(file, Some(t), topics)),
         },
-        None => topics
-            .iter()
-            .find(|(t, i)| t.as_str() == "/odom" && i.schema == types.odometry)
-            .map(|(t, _)| t.clone()),
+        None => {
+            let odom = topics
+                .iter()
+                .find(|(t, i)| t.as_str() == "/odom" && i.schema == types.odometry);
+            let tf = topics
+                .iter()
+                .find(|(t, i)| t.as_str() == "/tf" && types.transforms == Some(&i.schema));
+            if let (None, Some((t, _))) = (odom, tf) {
+                eprintln!("hough-heading: {file}: odometry from {t} (odom → base_link), the bag has no /odom");
+            }
+            odom.or(tf).map(|(t, _)| t.clone())
+        }
     };
     Ok((topic, odom))
 }
