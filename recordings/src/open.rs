@@ -54,7 +54,8 @@ pub struct Source {
     pub format: Format,
     /// Bags: the `LaserScan` topic (without it, the bag's only one).
     pub topic: Option<String>,
-    /// Bags: the `Odometry` topic (default `/odom` when the bag has it).
+    /// Bags: the `Odometry` topic (default `/odom` when the bag has it, else a
+    /// ROS 2 bag's `/tf`: its `odom` → `base_link` transform).
     pub odom_topic: Option<String>,
     /// CARMEN `FLASER`: "no return" at or beyond this, metres.
     pub max_range: f32,
