@@ -165,6 +165,11 @@ impl Summary {
         self.errors += other.errors;
     }
 
+    /// Whether no pair was scored (a recording without reference poses).
+    pub fn is_empty(&self) -> bool {
+        self.rows.is_empty()
+    }
+
     /// Counts a line that failed.
     pub fn add_error(&mut self) {
         self.errors += 1;

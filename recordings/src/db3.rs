@@ -6,7 +6,8 @@
 //! (a split bag, its files in order: [`crate::bagdir`]), or one `.db3` file
 //! given by itself. In each file, the `messages` of the two topics are read
 //! in time order (then by row id), a page of rows at a time, so memory holds
-//! one page. The files are opened read-only. Payloads are CDR, decoded as for MCAP bags
+//! one page. The files are opened read-only and immutable ([`open`]): reading
+//! leaves the bag's directory as it was. Payloads are CDR, decoded as for MCAP bags
 //! ([`crate::ros2`]); a message's time is its header stamp (the bag's
 //! receive time when the stamp is zero).
 
@@ -16,22 +17,51 @@ use std::path::{Path, PathBuf};
 use rusqlite::{Connection, OpenFlags};
 
 use crate::error::{Fatal, RecordError};
-use crate::ros2::{
-    decode_odometry, decode_scan, odometry_item, scan_item, BagItem, TopicInfo, LASER_SCAN,
-    ODOMETRY,
-};
+use crate::ros2::{decode_scan, scan_item, BagItem, TopicInfo, LASER_SCAN, ODOMETRY};
 
 /// The first bytes of an SQLite database.
 pub const MAGIC: &[u8] = b"SQLite format 3\0";
 /// Rows read from the database at a time.
 const PAGE: i64 = 256;
 
+/// Opens `path` read-only and immutable (an SQLite URI with `mode=ro` and
+/// `immutable=1`): SQLite then takes no lock and writes nothing beside the
+/// file (no `-shm`, no `-wal`), so a bag on a read-only medium reads, and a
+/// bag read is left as it was. Immutable means the file must not change
+/// while it is read, as a finished recording does not. A bag whose
+/// recording left a non-empty write-ahead log (`FILE-wal`, rosbag2's
+/// `resilient` preset cut short) holds messages there that an immutable
+/// reader would miss: it is opened read-only only (SQLite may then add its
+/// `-shm` file beside it).
 fn open(path: &Path) -> Result<Connection, String> {
+    let mut wal = path.as_os_str().to_owned();
+    wal.push("-wal");
+    let immutable = std::fs::metadata(&wal).map_or(true, |m| m.len() == 0);
     Connection::open_with_flags(
-        path,
-        OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX,
+        uri(path, immutable),
+        OpenFlags::SQLITE_OPEN_READ_ONLY
+            | OpenFlags::SQLITE_OPEN_URI
+            | OpenFlags::SQLITE_OPEN_NO_MUTEX,
     )
     .map_err(|e| format!("cannot open: {e}"))
+}
+
+/// The read-only (and `immutable`) SQLite URI of `path` (`%`, `?` and `#`,
+/// which a URI's path cannot hold as they are, percent-encoded).
+fn uri(path: &Path, immutable: bool) -> String {
+    let mut out = String::from("file:");
+    for c in path.to_string_lossy().chars() {
+        match c {
+            '%' | '?' | '#' => out.push_str(&format!("%{:02X}", c as u32)),
+            c => out.push(c),
+        }
+    }
+    out.push_str(if immutable {
+        "?mode=ro&immutable=1"
+    } else {
+        "?mode=ro"
+    });
+    out
 }
 
 /// Every topic with messages in the bag's files.
@@ -234,44 +264,54 @@ impl Iterator for BagReader {
     type Item = BagItem;
 
     fn next(&mut self) -> Option<BagItem> {
-        if self.failed {
-            return None;
-        }
-        let row = match self.next_row() {
-            Ok(row) => row?,
-            Err(e) => {
-                self.failed = true;
-                let error = RecordError::new(
-                    format!("after message {}", self.count),
-                    format!("unreadable ROS 2 bag in SQLite (truncated or corrupt file?): {e}"),
-                );
-                return Some(Ok(Err(error)));
+        loop {
+            if self.failed {
+                return None;
             }
-        };
-        self.count += 1;
-        let record = format!("message {}", self.count);
-        let topic = row.topic.as_str();
-        let is_scan = topic == self.topic;
-        let expected = if is_scan { LASER_SCAN } else { ODOMETRY };
-        let (schema, format) = self.type_of(topic);
-        if schema != expected || format != "cdr" {
-            let fatal = Fatal::io(format!(
-                "{}: {record} on topic {topic} is {schema} ({format} encoding); expected \
-                 {expected} (cdr encoding)",
-                self.name
-            ));
-            if is_scan && !self.checked {
-                self.failed = true;
-                return Some(Err(fatal));
+            let row = match self.next_row() {
+                Ok(row) => row?,
+                Err(e) => {
+                    self.failed = true;
+                    let error = RecordError::new(
+                        format!("after message {}", self.count),
+                        format!("unreadable ROS 2 bag in SQLite (truncated or corrupt file?): {e}"),
+                    );
+                    return Some(Ok(Err(error)));
+                }
+            };
+            self.count += 1;
+            let record = format!("message {}", self.count);
+            let topic = row.topic.as_str();
+            let is_scan = topic == self.topic;
+            let expected = if is_scan { LASER_SCAN } else { ODOMETRY };
+            let (schema, format) = self.type_of(topic);
+            let known = if is_scan {
+                schema == LASER_SCAN
+            } else {
+                crate::tf::is_odometry(&schema)
+            };
+            if !known || format != "cdr" {
+                let fatal = Fatal::io(format!(
+                    "{}: {record} on topic {topic} is {schema} ({format} encoding); expected \
+                     {expected} (cdr encoding)",
+                    self.name
+                ));
+                if is_scan && !self.checked {
+                    self.failed = true;
+                    return Some(Err(fatal));
+                }
+                return Some(Ok(Err(RecordError::new(record, fatal.to_string()))));
             }
-            return Some(Ok(Err(RecordError::new(record, fatal.to_string()))));
+            let time = row.time_ns as f64 * 1e-9;
+            let named = format!("{record} (topic {topic})");
+            if is_scan {
+                self.checked = true;
+                return Some(scan_item(decode_scan(&row.data), time, named));
+            }
+            // A transform message without the odometry's transform: the next.
+            if let Some(item) = crate::tf::odometry_message(&schema, &row.data, time, named) {
+                return Some(item);
+            }
         }
-        let time = row.time_ns as f64 * 1e-9;
-        let named = format!("{record} (topic {topic})");
-        if is_scan {
-            self.checked = true;
-            return Some(scan_item(decode_scan(&row.data), time, named));
-        }
-        Some(odometry_item(decode_odometry(&row.data), time, named))
     }
 }

@@ -25,6 +25,7 @@
 pub mod answer;
 pub mod bagdir;
 pub mod carmen;
+pub mod chain_report;
 pub mod db3;
 pub mod engine;
 pub mod error;
@@ -39,6 +40,7 @@ pub mod pairs;
 pub mod ros1;
 pub mod ros2;
 pub mod stats;
+pub mod tf;
 pub mod trajectory;
 pub mod wire;
 

@@ -54,7 +54,8 @@ pub struct Source {
     pub format: Format,
     /// Bags: the `LaserScan` topic (without it, the bag's only one).
     pub topic: Option<String>,
-    /// Bags: the `Odometry` topic (default `/odom` when the bag has it).
+    /// Bags: the `Odometry` topic (default `/odom` when the bag has it, else a
+    /// ROS 2 bag's `/tf`: its `odom` → `base_link` transform).
     pub odom_topic: Option<String>,
     /// CARMEN `FLASER`: "no return" at or beyond this, metres.
     pub max_range: f32,
@@ -172,12 +173,13 @@ pub fn open_recording(source: &Source, bar: &ProgressBar) -> Result<Opened, Fata
             (Box::new(reader), Some(topic))
         }
         Format::Ros1 => {
-            let topics = ros1::topics(input, &file)?;
-            let (topic, odom) = choose_topics(source, &file, &topics, BagTypes::ROS1)?;
+            let contents = ros1::contents(input, &file)?;
+            let (topic, odom) = choose_topics(source, &file, &contents.topics, BagTypes::ROS1)?;
             // The topics took one pass; the messages take another.
             bar.reset();
             let input = open(&source.file, bar)?;
-            let reader = ros1::BagReader::new(input, &file, &topic, odom.as_deref());
+            let reader =
+                ros1::BagReader::new(input, &file, &topic, odom.as_deref()).knowing(&contents);
             (Box::new(reader), Some(topic))
         }
         Format::Mcap => {
@@ -270,6 +272,9 @@ pub struct BagTypes {
     pub scan: &'static [&'static str],
     /// The odometry's type.
     pub odometry: &'static str,
+    /// The transforms' type, read as odometry when the bag has no `/odom`
+    /// (ROS 2: [`crate::tf`]).
+    pub transforms: Option<&'static str>,
 }
 
 impl BagTypes {
@@ -277,17 +282,19 @@ impl BagTypes {
     pub const ROS2: Self = Self {
         scan: &[ros2::LASER_SCAN],
         odometry: ros2::ODOMETRY,
+        transforms: Some(crate::tf::TF_MESSAGE),
     };
     /// ROS 1.
     pub const ROS1: Self = Self {
         scan: &[ros1::LASER_SCAN, ros1::MULTI_ECHO_SCAN],
         odometry: ros1::ODOMETRY,
+        transforms: None,
     };
 }
 
 /// The scan topic (`--topic`, or the bag's only scan topic) and the
-/// odometry topic (`--odom-topic`, or `/odom` when it carries odometry) of a
-/// bag whose `topics` were listed.
+/// odometry topic (`--odom-topic`, or `/odom` when it carries odometry, else
+/// `/tf` in a ROS 2 bag) of a bag whose `topics` were listed.
 ///
 /// # Errors
 /// A usage error listing the bag's topics when the scan topic is missing,
@@ -316,7 +323,9 @@ pub fn choose_topics(
     // A scan topic of another type fails at its first message (named).
     let odom = match &args.odom_topic {
         Some(t) => match topics.get(t) {
-            Some(i) if i.schema == types.odometry => Some(t.clone()),
+            Some(i) if i.schema == types.odometry || types.transforms == Some(&i.schema) => {
+                Some(t.clone())
+            }
             Some(i) => {
                 return Err(Fatal::usage(format!(
                     "{file}: topic {t} carries {}, not {}",
@@ -325,10 +334,18 @@ pub fn choose_topics(
             }
             None => return Err(ros2::topic_error(file, Some(t), topics)),
         },
-        None => topics
-            .iter()
-            .find(|(t, i)| t.as_str() == "/odom" && i.schema == types.odometry)
-            .map(|(t, _)| t.clone()),
+        None => {
+            let odom = topics
+                .iter()
+                .find(|(t, i)| t.as_str() == "/odom" && i.schema == types.odometry);
+            let tf = topics
+                .iter()
+                .find(|(t, i)| t.as_str() == "/tf" && types.transforms == Some(&i.schema));
+            if let (None, Some((t, _))) = (odom, tf) {
+                eprintln!("hough-heading: {file}: odometry from {t} (odom → base_link), the bag has no /odom");
+            }
+            odom.or(tf).map(|(t, _)| t.clone())
+        }
     };
     Ok((topic, odom))
 }

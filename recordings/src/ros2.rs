@@ -9,7 +9,8 @@
 //! finite range at all is an error of its message. A scan's odometry is the
 //! last odometry message before it in the file (no interpolation), and its
 //! time the header stamp (the log time when the stamp is zero). The laser's
-//! offset on the robot is `--laser-offset` (`/tf_static` is not read).
+//! offset on the robot is `--laser-offset` (`/tf_static` is not read). A bag
+//! without `/odom` takes its odometry from `/tf` ([`crate::tf`]).
 
 use std::collections::BTreeMap;
 use std::io::Read;
@@ -384,7 +385,12 @@ impl<R: Read> Iterator for BagReader<R> {
                 .as_ref()
                 .map_or("(no schema)", |s| s.name.as_str());
             let expected = if is_scan { LASER_SCAN } else { ODOMETRY };
-            if schema != expected || message.channel.message_encoding != "cdr" {
+            let known = if is_scan {
+                schema == LASER_SCAN
+            } else {
+                crate::tf::is_odometry(schema)
+            };
+            if !known || message.channel.message_encoding != "cdr" {
                 let fatal = Fatal::io(format!(
                     "{}: {record} on topic {topic} is {schema} ({} encoding); expected {expected} \
                      (cdr encoding)",
@@ -402,7 +408,9 @@ impl<R: Read> Iterator for BagReader<R> {
                 self.checked = true;
                 return Some(scan_item(decode_scan(&message.data), time, named));
             }
-            return Some(odometry_item(decode_odometry(&message.data), time, named));
+            if let Some(item) = crate::tf::odometry_message(schema, &message.data, time, named) {
+                return Some(item);
+            }
         }
         None
     }

@@ -8,7 +8,10 @@
 //! (`source` = `odometry`); otherwise by the estimate if it has a
 //! translation (`flagged`); otherwise the pose stays (`none`). The
 //! odometry's and the log's own poses are expressed relative to the first
-//! scan's, so all tracks start at the origin facing +x.
+//! scan's, so all tracks start at the origin facing +x. A recording whose
+//! odometry (or poses) begin after its first scan (a bag whose first
+//! odometry message comes after its first scan) starts that track at the
+//! first scan that has one, placed at the chain's pose there.
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -52,8 +55,10 @@ pub struct Step {
 pub struct Trajectory {
     /// The poses, one per scan used.
     pub steps: Vec<Step>,
-    first_odom: Option<Pose>,
-    first_log: Option<Pose>,
+    /// The first odometry pose, and the chain's pose at its scan.
+    odom_anchor: Option<(Pose, Pose)>,
+    /// The first log pose, and the chain's pose at its scan.
+    log_anchor: Option<(Pose, Pose)>,
     points: Vec<(f64, f64)>,
     seen_points: usize,
 }
@@ -92,25 +97,33 @@ pub fn fused_delta(estimate: &PairEstimate, odom: Option<Pose>) -> Option<(Pose,
     })
 }
 
+/// `p` in the chain's frame: relative to the track's first pose, placed at
+/// the chain's pose there (`anchor` set by the first `p`, at `at`).
+fn anchored(anchor: &mut Option<(Pose, Pose)>, p: Option<Pose>, at: Pose) -> Option<Pose> {
+    let p = p?;
+    let (first, origin) = *anchor.get_or_insert((p, at));
+    Some(origin.compose(&first.between(&p)))
+}
+
 impl Trajectory {
     /// Starts the chain at `first`.
     pub fn start(&mut self, first: &Kept) {
-        self.first_odom = first.1.odom;
-        self.first_log = first.1.log_pose;
+        self.odom_anchor = None;
+        self.log_anchor = None;
         self.push(first, Pose::ZERO, "start");
     }
 
     fn push(&mut self, scan: &Kept, pose: Pose, source: &'static str) {
         let s = &scan.1;
-        let relative =
-            |first: Option<Pose>, p: Option<Pose>| first.zip(p).map(|(f, p)| f.between(&p));
+        let odom = anchored(&mut self.odom_anchor, s.odom, pose);
+        let log_pose = anchored(&mut self.log_anchor, s.log_pose, pose);
         self.steps.push(Step {
             scan: scan.0,
             time: s.time,
             pose,
             source,
-            odom: relative(self.first_odom, s.odom),
-            log_pose: relative(self.first_log, s.log_pose),
+            odom,
+            log_pose,
         });
         // Thin the points evenly: keep one in `stride` of all seen.
         let (sn, cs) = pose.theta.sin_cos();
@@ -188,5 +201,70 @@ impl Trajectory {
     /// The scans' points in the world (thinned evenly), for a figure.
     pub fn points(&self) -> &[(f64, f64)] {
         &self.points
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pairs::ScanRecord;
+
+    fn kept(index: usize, odom: Option<Pose>) -> Kept {
+        let record = ScanRecord {
+            ranges: vec![Some(1.0); 4],
+            angle_min: 0.0,
+            angle_increment: 0.1,
+            max_range: 10.0,
+            laser_offset: [0.0; 3],
+        };
+        let scan = Scan {
+            record,
+            time: Some(index as f64),
+            odom,
+            log_pose: None,
+            name: format!("scan {index}"),
+        };
+        (index, Arc::new(scan))
+    }
+
+    /// Odometry that starts after the first scan starts the odometry track
+    /// at the chain's pose of the first scan that has one.
+    #[test]
+    fn late_odometry_starts_at_the_chains_pose() {
+        let at = |x: f64, y: f64, theta: f64| Pose { x, y, theta };
+        let mut t = Trajectory::default();
+        let scans = [
+            kept(0, None),
+            kept(1, Some(at(5.0, 5.0, 1.0))),
+            kept(2, Some(at(5.0, 6.0, 1.0 + 0.2))),
+        ];
+        t.start(&scans[0]);
+        // The chain turned 90° and moved 1 m by scan 1.
+        t.add_chained(
+            &scans[1],
+            at(1.0, 0.0, std::f64::consts::FRAC_PI_2),
+            "estimate",
+        );
+        t.add_chained(
+            &scans[2],
+            at(1.0, 1.0, std::f64::consts::FRAC_PI_2),
+            "estimate",
+        );
+        let odom: Vec<Option<Pose>> = t.steps.iter().map(|s| s.odom).collect();
+        assert_eq!(odom[0], None);
+        assert_eq!(odom[1], Some(at(1.0, 0.0, std::f64::consts::FRAC_PI_2)));
+        // The odometry's step from scan 1 to 2, composed onto the chain's
+        // pose at scan 1.
+        let d = at(5.0, 5.0, 1.0).between(&at(5.0, 6.0, 1.2));
+        let expected = at(1.0, 0.0, std::f64::consts::FRAC_PI_2).compose(&d);
+        let got = odom[2].expect("odometry");
+        assert!((got.x - expected.x).abs() < 1e-12 && (got.y - expected.y).abs() < 1e-12);
+        assert!((got.theta - (std::f64::consts::FRAC_PI_2 + 0.2)).abs() < 1e-12);
+        // A recording whose first scan has odometry starts it at the origin.
+        let mut t = Trajectory::default();
+        t.start(&scans[1]);
+        t.add_chained(&scans[2], at(0.0, 0.0, 0.0), "estimate");
+        assert_eq!(t.steps[0].odom, Some(Pose::ZERO));
+        assert!((t.steps[1].odom.unwrap().theta - 0.2).abs() < 1e-12);
     }
 }

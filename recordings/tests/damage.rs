@@ -47,7 +47,7 @@ fn damaged_recordings_never_panic_the_readers() {
             let reader = ros1::BagReader::new(bytes, "bag", topic, Some("/odom"));
             for _ in reader.take(100) {}
         }
-        let _ = ros1::topics(bytes, "bag");
+        let _ = ros1::contents(bytes, "bag");
     };
     for cut in (0..ros1.len()).step_by(53) {
         read_ros1(&ros1[..cut]);

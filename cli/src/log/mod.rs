@@ -19,9 +19,9 @@ mod pairing;
 use std::io::{self, BufWriter, Write};
 use std::time::Instant;
 
-use hough_heading_recordings::evo;
 use hough_heading_recordings::trajectory::Trajectory;
 use hough_heading_recordings::wire::WireReader;
+use hough_heading_recordings::{chain_report, evo};
 use hough_heading_recordings::{open_recording, Fatal, Opened};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -146,7 +146,18 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
             start.elapsed().as_secs_f64()
         );
     }
-    if args.summary {
+    if args.summary && run.summary.is_empty() {
+        // Nothing to score against: what the run shows without it.
+        eprintln!(
+            "\n{file}: no reference poses to score against (the recording has no poses of its \
+             own, as a Radish `-corrected` log's `FLASER` lines are), so no scored table; \
+             {} pairs, {} failed record(s) or pair(s)",
+            run.pairs, run.failed
+        );
+        if let Some(report) = run.trajectory.as_ref().and_then(chain_report::report) {
+            eprintln!("\n{}", report);
+        }
+    } else if args.summary {
         eprintln!(
             "\n{file}: {} pairs scored against the log's poses ({}², N_θ = {})\n\n{}",
             args.pairs_name(),

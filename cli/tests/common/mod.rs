@@ -63,3 +63,31 @@ pub fn scratch_file(group: &str, name: &str) -> PathBuf {
     std::fs::create_dir_all(&dir).expect("scratch dir");
     dir.join(name)
 }
+
+/// Whether the environment variable `CI` is set to something other than
+/// empty, `0` or `false` (CI services set `CI=true`; `.ci/run` sets `CI=1`).
+pub fn on_ci() -> bool {
+    std::env::var("CI").is_ok_and(|v| !matches!(v.trim(), "" | "0" | "false"))
+}
+
+/// The path of `../shared/data/<name>` (next to the clone), or `None` after
+/// printing `SKIPPED: …` to stderr when it is absent (a user's clone). On CI
+/// ([`on_ci`]) the data must be there: a missing file fails the test.
+pub fn shared_data(name: &str) -> Option<PathBuf> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/data")
+        .join(name);
+    if path.exists() {
+        return Some(path);
+    }
+    assert!(
+        !on_ci(),
+        "CI is set but the real data {} is absent: CI must run this test",
+        path.display()
+    );
+    eprintln!(
+        "SKIPPED: real-data test: {} is absent; set CI=1 to make this a failure",
+        path.display()
+    );
+    None
+}
