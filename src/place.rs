@@ -122,8 +122,7 @@ mod tests {
             signature(place(&[(2, 200), (11, 50), (25, 100)])),
             signature([10; 36]),
         ];
-        let ranked: Vec<PlaceMatch, 2> =
-            rank_places(&signature(query), places.iter().enumerate());
+        let ranked: Vec<PlaceMatch, 2> = rank_places(&signature(query), places.iter().enumerate());
         assert_eq!(ranked.len(), 2);
         assert_eq!(ranked[0].index, 1);
         assert!(ranked[0].similarity >= ranked[1].similarity);

@@ -7,7 +7,7 @@
 //!
 //! - *steps by source*: the chain's steps (one a pair) by what moved them
 //!   ([`Step::source`]: `estimate` and `estimate+odometry` are confident
-//!   estimates; `prior`, `predicted`, `flagged`, `odometry` and `none` are
+//!   estimates; `prior`, `unplaced`, `carried`, `odometry` and `none` are
 //!   flagged or failed pairs, by how the chain went on).
 //! - *chained turn*: the sum of the steps' heading changes, each wrapped to
 //!   (−180, 180] (the total heading change, whole turns included).

@@ -83,6 +83,16 @@ pub struct LogArgs {
     /// 30 for `motion` and keyframes).
     #[arg(long, value_name = "DEGREES")]
     pub prior_sigma: Option<f64>,
+    /// Loop closures and a pose graph at the end of a chained run: the
+    /// corrected poses go to `--trajectory`, `--plot` and `--summary` (the
+    /// JSON lines keep the chain's). Off by default: on the shared logs it
+    /// does not yet pay (`docs/drift.md`).
+    #[arg(long)]
+    pub loops: bool,
+    /// Writes the pose graph as `.g2o` (VERTEX_SE2, EDGE_SE2) for g2o or
+    /// GTSAM users; implies `--loops`.
+    #[arg(long, value_name = "FILE")]
+    pub g2o: Option<PathBuf>,
     /// Shorthand for `--pairs keyframes`.
     #[arg(long, conflicts_with = "pairs")]
     pub keyframes: bool,
@@ -156,6 +166,11 @@ impl LogArgs {
     pub fn prior_sigma(&self) -> f64 {
         let default = if self.chained() { 30.0 } else { 10.0 };
         self.prior_sigma.unwrap_or(default)
+    }
+
+    /// The run closes loops: `--loops` or `--g2o` on a chained run.
+    pub fn closes_loops(&self) -> bool {
+        self.chained() && (self.loops || self.g2o.is_some())
     }
 
     /// The run chains the scans (motion prior or keyframes).

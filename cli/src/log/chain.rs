@@ -19,6 +19,8 @@ use hough_heading_recordings::model::Pose;
 use hough_heading_recordings::pairs::{self, PairEstimate};
 use hough_heading_recordings::trajectory::{fused_delta, Kept};
 
+use super::loops::Node;
+
 /// A stored scan and its chained pose.
 #[derive(Clone)]
 struct Stored {
@@ -37,6 +39,8 @@ pub struct Chain {
     keyframe: Option<Stored>,
     last_placed: Option<Stored>,
     previous_keyframe: Option<Stored>,
+    /// Every placed scan, in order: the pose graph's nodes (`--loops`).
+    pub nodes: Vec<Node>,
 }
 
 /// What the chain made of one scan, as the output line reports it.
@@ -111,6 +115,7 @@ impl Chain {
             keyframe: None,
             last_placed: None,
             previous_keyframe: None,
+            nodes: Vec::new(),
         }
     }
 
@@ -124,6 +129,11 @@ impl Chain {
         self.keyframe = Some(stored.clone());
         self.last_placed = Some(stored);
         self.previous_keyframe = None;
+        self.nodes = vec![Node {
+            scan: first.clone(),
+            pose: Pose::ZERO,
+            variance: 0.0,
+        }];
         self.last_time = first.1.time;
     }
 
@@ -281,6 +291,11 @@ impl Chain {
                 self.previous_keyframe = self.keyframe.replace(stored.clone());
             }
             self.last_placed = Some(stored);
+            self.nodes.push(Node {
+                scan: scan.clone(),
+                pose,
+                variance: f64::from(step.heading_sigma_deg).powi(2),
+            });
         }
         let line = ChainLine {
             source: step.source.name(),

@@ -14,6 +14,7 @@
 mod args;
 pub mod chain;
 mod figure;
+pub mod loops;
 mod pairing;
 
 use std::io::{self, BufWriter, Write};
@@ -146,6 +147,9 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
             start.elapsed().as_secs_f64()
         );
     }
+    if args.closes_loops() {
+        close_loops(&mut run, &file)?;
+    }
     if args.summary && run.summary.is_empty() {
         // Nothing to score against: what the run shows without it.
         eprintln!(
@@ -186,4 +190,65 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
         }
     }
     Ok(run.failed)
+}
+
+/// `--loops`: closes the run's loops and puts the corrected poses into its
+/// trajectory (each scan moved with the placed scan at or before it);
+/// reports the closures on stderr, and writes `--g2o`.
+fn close_loops(run: &mut Run<'_>, file: &str) -> Result<(), Fatal> {
+    let Some(chain) = &run.chain else {
+        return Ok(());
+    };
+    let nodes = &chain.nodes;
+    let solved = loops::close(
+        nodes,
+        &mut run.workers,
+        &run.options,
+        run.mode,
+        &loops::LoopSettings::default(),
+    )?;
+    if let Some(t) = &mut run.trajectory {
+        let mut k = 0;
+        for step in &mut t.steps {
+            while k + 1 < nodes.len() && nodes[k + 1].scan.0 <= step.scan {
+                k += 1;
+            }
+            if let (Some(node), Some(corrected)) = (nodes.get(k), solved.poses.get(k)) {
+                step.pose = corrected.compose(&node.pose.between(&step.pose));
+            }
+        }
+    }
+    // Closures more than 5° off the recording's own poses, where it has them.
+    let wrong = |c: &loops::Closure| {
+        let (a, b) = (&nodes[c.from].scan.1, &nodes[c.to].scan.1);
+        a.log_pose.zip(b.log_pose).map(|(p, q)| {
+            let truth = p.between(&q).theta.to_degrees();
+            ((c.delta.theta.to_degrees() - truth + 180.0).rem_euclid(360.0) - 180.0).abs() > 5.0
+        })
+    };
+    let accepted: Vec<&loops::Closure> = solved.closures.iter().filter(|c| c.accepted).collect();
+    let count_wrong =
+        |cs: &mut dyn Iterator<Item = &loops::Closure>| cs.filter_map(wrong).filter(|w| *w).count();
+    let judged = accepted.iter().any(|c| wrong(c).is_some());
+    if !run.args.quiet || run.args.summary {
+        let wrong_text = if judged {
+            format!(
+                "; more than 5° off the recording's poses: {} of the accepted, {} of the rejected",
+                count_wrong(&mut accepted.iter().copied()),
+                count_wrong(&mut solved.closures.iter().filter(|c| !c.accepted))
+            )
+        } else {
+            String::new()
+        };
+        eprintln!(
+            "hough-heading: {file}: loop closures: {} confident tried, {} accepted into the pose graph of {} placed scans{wrong_text}",
+            solved.closures.len(),
+            accepted.len(),
+            nodes.len()
+        );
+    }
+    if let Some(path) = &run.args.g2o {
+        loops::write_g2o(path, nodes, &solved)?;
+    }
+    Ok(())
 }

@@ -1,0 +1,471 @@
+//! `log --loops`: loop closures over the chain's placed scans, checked
+//! before they count, and the pose graph they close (`factrs`: SE(2),
+//! Levenberg–Marquardt, a Huber kernel on the closures), solved at the end
+//! of the run.
+//!
+//! 1. **Where to look.** Every [`LoopSettings::stride`]-th placed scan is a
+//!    query; the placed scans at least [`LoopSettings::min_gap`] scans
+//!    before it whose chained position lies within the gate (a few metres
+//!    plus what the chain's heading σ since then may have moved it) are the
+//!    candidates.
+//! 2. **Which to try.** The candidates are ranked by the place descriptor
+//!    (`hough_heading::place`: the signature correlated over every shift,
+//!    on a fixed 10 m window around the sensor) and the first
+//!    [`LoopSettings::top`] are estimated prior-free, as a pair of scans
+//!    (verification, free space, beam check). Only confident answers are
+//!    closures.
+//! 3. **Which count.** A closure's heading must lie within 3σ of the
+//!    chain's own relative heading (σ from the chain's variances, the
+//!    closure's own 2°), its translation within a metre plus what three
+//!    such σ allow over the path between its ends, and it must agree with
+//!    another closure that passed (pairwise consistency: two closures
+//!    measure the same drift where the chain between their ends is
+//!    certain), with two others where the chain's σ is above
+//!    [`LoopSettings::trusted_sigma_deg`] (revisits give 90° and 180°
+//!    answers, DESIGN.md §3i).
+//! 4. **The graph.** Each placed scan a node; between consecutive ones the
+//!    chain's own step (heading σ from the chain's variances, translation
+//!    5 cm + 5 % of the step); each accepted closure a factor (σ 1°,
+//!    0.1 m) under a Huber kernel; the first scan fixed.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use factrs::core::{
+    BetweenResidual, GaussianNoise, Graph, Huber, LevenMarquardt, PriorResidual, Values, SE2,
+};
+use factrs::fac;
+use factrs::optimizers::OptError;
+use factrs::traits::Optimizer;
+use hough_heading::{Mode, Raster};
+use hough_heading_recordings::engine::{Engine, View};
+use hough_heading_recordings::model::Pose;
+use hough_heading_recordings::pairs::{self as scans, PairRecord, RasterOptions};
+use hough_heading_recordings::trajectory::Kept;
+use hough_heading_recordings::Fatal;
+
+use crate::jobs::Workers;
+
+/// The graph's variable symbols: `X(k)`, the pose of placed scan `k`.
+mod symbols {
+    #![allow(missing_docs)]
+    use factrs::assign_symbols;
+    use factrs::core::SE2;
+    assign_symbols!(X: SE2);
+}
+use symbols::X;
+
+/// A placed scan of the chain.
+#[derive(Clone)]
+pub struct Node {
+    /// The scan.
+    pub scan: Kept,
+    /// Its chained pose.
+    pub pose: Pose,
+    /// The chain's heading variance at it, degrees².
+    pub variance: f64,
+}
+
+/// Where and how hard to look for closures.
+#[derive(Clone, Copy, Debug)]
+pub struct LoopSettings {
+    /// Scans between the two ends of a closure, at least.
+    pub min_gap: usize,
+    /// Every this many placed scans is a query.
+    pub stride: usize,
+    /// Candidates estimated per query.
+    pub top: usize,
+    /// The position gate's fixed part, metres.
+    pub gate_m: f64,
+    /// The position gate at most, metres: farther pairs share too little
+    /// (DESIGN.md §3g gated at 5 m).
+    pub max_gate_m: f64,
+    /// Below this relative heading σ (degrees) the chain's gate alone
+    /// decides.
+    pub trusted_sigma_deg: f64,
+}
+
+impl Default for LoopSettings {
+    fn default() -> Self {
+        Self {
+            min_gap: 50,
+            stride: 5,
+            top: 3,
+            gate_m: 2.0,
+            max_gate_m: 5.0,
+            trusted_sigma_deg: 10.0,
+        }
+    }
+}
+
+/// The heading σ of a closure's own estimate, degrees.
+const CLOSURE_SIGMA_DEG: f64 = 2.0;
+/// The translation σ of a closure's own estimate, metres (a revisit's
+/// translation is weaker than its heading).
+const CLOSURE_SIGMA_M: f64 = 0.5;
+/// The window of the place descriptors, metres from the sensor.
+const PLACE_RADIUS_M: f32 = 10.0;
+
+/// A closure tried: the two nodes, the estimate's motion, and what became
+/// of it.
+#[derive(Clone, Debug)]
+pub struct Closure {
+    /// The earlier node.
+    pub from: usize,
+    /// The later node.
+    pub to: usize,
+    /// The robot's motion from `from` to `to` by the estimate.
+    pub delta: Pose,
+    /// Its heading minus the chain's, degrees.
+    pub residual_deg: f64,
+    /// The chain's relative heading σ between the two, degrees.
+    pub sigma_deg: f64,
+    /// Its translation minus the chain's, metres.
+    pub offset_m: f64,
+    /// How far the chain may have moved the later end: a metre, plus three
+    /// relative σ (radians) of the path between them, metres.
+    pub offset_gate_m: f64,
+    /// It entered the graph.
+    pub accepted: bool,
+}
+
+/// The run's closures and the corrected poses of its nodes.
+pub struct Solved {
+    /// Every confident closure tried.
+    pub closures: Vec<Closure>,
+    /// Each node's pose after the graph (the chain's without closures).
+    pub poses: Vec<Pose>,
+}
+
+/// Finds, checks and applies the loop closures of `nodes`.
+///
+/// # Errors
+/// A [`Fatal`] error when the solver fails.
+pub fn close(
+    nodes: &[Node],
+    workers: &mut Workers<Box<dyn Engine>>,
+    options: &RasterOptions,
+    mode: Mode,
+    settings: &LoopSettings,
+) -> Result<Solved, Fatal> {
+    let signatures = workers.map(nodes, |engine, _, node| {
+        signature(engine.as_mut(), &node.scan)
+    });
+    let queries = candidates(nodes, &signatures, workers, settings);
+    let estimated = workers.map(&queries, |engine, _, &(i, j)| {
+        let pair = PairRecord {
+            scan1: nodes[i].scan.1.record.clone(),
+            scan2: nodes[j].scan.1.record.clone(),
+        };
+        scans::estimate_with_prior(engine.as_mut(), &pair, options, &[mode], None)
+    });
+    let mut closures = Vec::new();
+    for (&(i, j), result) in queries.iter().zip(estimated) {
+        let Ok(estimates) = result else { continue };
+        let e = &estimates[0];
+        if e.estimate.status != hough_heading::Status::Confident {
+            continue;
+        }
+        let odom = nodes[i]
+            .scan
+            .1
+            .odom
+            .zip(nodes[j].scan.1.odom)
+            .map(|(p, q)| p.between(&q));
+        let (x, y) = hough_heading_recordings::trajectory::fused_delta(e, odom)
+            .map_or((0.0, 0.0), |(d, _)| (d.x, d.y));
+        let delta = Pose {
+            x,
+            y,
+            theta: e.dtheta_deg.to_radians(),
+        };
+        let chain = nodes[i].pose.between(&nodes[j].pose);
+        let residual_deg = wrap_deg((delta.theta - chain.theta).to_degrees());
+        let sigma_deg = ((nodes[j].variance - nodes[i].variance).abs()
+            + CLOSURE_SIGMA_DEG * CLOSURE_SIGMA_DEG)
+            .sqrt();
+        let path: f64 = (i + 1..=j)
+            .map(|k| {
+                let d = nodes[k - 1].pose.between(&nodes[k].pose);
+                d.x.hypot(d.y)
+            })
+            .sum();
+        closures.push(Closure {
+            from: i,
+            to: j,
+            delta,
+            residual_deg,
+            sigma_deg,
+            offset_m: (delta.x - chain.x).hypot(delta.y - chain.y),
+            offset_gate_m: 1.0 + 3.0 * sigma_deg.to_radians().min(1.0) * path,
+            accepted: false,
+        });
+    }
+    let variances: Vec<f64> = nodes.iter().map(|n| n.variance).collect();
+    let chain: Vec<Pose> = nodes.iter().map(|n| n.pose).collect();
+    accept(&mut closures, &variances, settings);
+    let poses = solve(&chain, &variances, &closures)?;
+    Ok(Solved { closures, poses })
+}
+
+/// The place descriptor of a scan: its signature on a fixed window.
+fn signature(engine: &mut dyn Engine, scan: &Kept) -> Vec<u16> {
+    let ranges = scan.1.record.ranges();
+    let Some(raster) = Raster::with_radius(PLACE_RADIUS_M, engine.size()) else {
+        return Vec::new();
+    };
+    engine.rasterize(View::First, &scan.1.record.scan(&ranges), &raster);
+    engine.place_signature(View::First)
+}
+
+/// The pairs to estimate: for each query, the most alike candidates within
+/// the gate.
+fn candidates(
+    nodes: &[Node],
+    signatures: &[Vec<u16>],
+    workers: &mut Workers<Box<dyn Engine>>,
+    settings: &LoopSettings,
+) -> Vec<(usize, usize)> {
+    let mut path = vec![0.0; nodes.len()];
+    for k in 1..nodes.len() {
+        let step = nodes[k - 1].pose.between(&nodes[k].pose);
+        path[k] = path[k - 1] + step.x.hypot(step.y);
+    }
+    let queries: Vec<usize> = (0..nodes.len()).step_by(settings.stride.max(1)).collect();
+    let ranked = workers.map(&queries, |engine, _, &j| {
+        let mut near: Vec<(usize, f64)> = nodes[..j]
+            .iter()
+            .enumerate()
+            .filter(|(i, n)| n.scan.0 + settings.min_gap <= nodes[j].scan.0 && *i < j)
+            .filter(|(i, n)| {
+                let sigma = (nodes[j].variance - n.variance).abs().sqrt().to_radians();
+                let gate = settings.gate_m + (path[j] - path[*i]) * sigma.min(1.0);
+                let d = n.pose.between(&nodes[j].pose);
+                d.x.hypot(d.y) <= gate.min(settings.max_gate_m)
+            })
+            .map(|(i, _)| (i, engine.place_similarity(&signatures[i], &signatures[j])))
+            .collect();
+        near.sort_by(|a, b| b.1.total_cmp(&a.1));
+        near.into_iter()
+            .take(settings.top)
+            .map(|(i, _)| (i, j))
+            .collect::<Vec<_>>()
+    });
+    ranked.into_iter().flatten().collect()
+}
+
+/// Marks the closures that pass the chain's gate and, where the chain is
+/// uncertain, agree with two others.
+fn accept(closures: &mut [Closure], variances: &[f64], settings: &LoopSettings) {
+    let gated: Vec<bool> = closures
+        .iter()
+        .map(|c| c.residual_deg.abs() <= 3.0 * c.sigma_deg && c.offset_m <= c.offset_gate_m)
+        .collect();
+    let consistent = |a: &Closure, b: &Closure| {
+        let v = (variances[a.from] - variances[b.from]).abs()
+            + (variances[a.to] - variances[b.to]).abs()
+            + 2.0 * CLOSURE_SIGMA_DEG * CLOSURE_SIGMA_DEG;
+        wrap_deg(a.residual_deg - b.residual_deg).abs() <= 3.0 * v.sqrt()
+    };
+    let accepted: Vec<bool> = (0..closures.len())
+        .map(|a| {
+            if !gated[a] {
+                return false;
+            }
+            let support = (0..closures.len())
+                .filter(|&b| b != a && gated[b] && consistent(&closures[a], &closures[b]))
+                .count();
+            let needed = if closures[a].sigma_deg <= settings.trusted_sigma_deg {
+                1
+            } else {
+                2
+            };
+            support >= needed
+        })
+        .collect();
+    for (c, a) in closures.iter_mut().zip(accepted) {
+        c.accepted = a;
+    }
+}
+
+/// The pose graph of the chain (`initial` poses, heading `variances` in
+/// degrees²) and the accepted closures, solved.
+fn solve(initial: &[Pose], variances: &[f64], closures: &[Closure]) -> Result<Vec<Pose>, Fatal> {
+    let initial = initial.to_vec();
+    if initial.len() < 2 || !closures.iter().any(|c| c.accepted) {
+        return Ok(initial);
+    }
+    let se2 = |p: &Pose| SE2::new(p.theta, p.x, p.y);
+    let mut values = Values::new();
+    for (k, p) in initial.iter().enumerate() {
+        values.insert(X(k as u32), se2(p));
+    }
+    let mut graph = Graph::new();
+    graph.add_factor(fac![
+        PriorResidual::new(se2(&initial[0])),
+        X(0),
+        GaussianNoise::<3>::from_diag_sigmas(1e-4, 1e-4, 1e-4)
+    ]);
+    for k in 1..initial.len() {
+        let step = initial[k - 1].between(&initial[k]);
+        let heading = (variances[k] - variances[k - 1])
+            .max(0.01)
+            .sqrt()
+            .to_radians();
+        let xy = 0.05 + 0.05 * step.x.hypot(step.y);
+        graph.add_factor(fac![
+            BetweenResidual::new(se2(&step)),
+            (X(k as u32 - 1), X(k as u32)),
+            GaussianNoise::<3>::from_diag_sigmas(heading, xy, xy)
+        ]);
+    }
+    for c in closures.iter().filter(|c| c.accepted) {
+        graph.add_factor(fac![
+            BetweenResidual::new(se2(&c.delta)),
+            (X(c.from as u32), X(c.to as u32)),
+            GaussianNoise::<3>::from_diag_sigmas(
+                CLOSURE_SIGMA_DEG.to_radians(),
+                CLOSURE_SIGMA_M,
+                CLOSURE_SIGMA_M
+            ),
+            Huber::default()
+        ]);
+    }
+    let mut optimizer: LevenMarquardt = LevenMarquardt::new_default(graph);
+    // Out of iterations, the solver's last values stand (each iteration
+    // lowered the cost); a system it cannot solve is an error.
+    let solved = match optimizer.optimize(values) {
+        Ok(v) | Err(OptError::MaxIterations(v)) => v,
+        Err(OptError::InvalidSystem) => return Err(Fatal::io("pose graph: invalid system")),
+        Err(OptError::FailedToStep) => return Err(Fatal::io("pose graph: failed to step")),
+    };
+    Ok((0..initial.len())
+        .map(|k| {
+            solved.get(X(k as u32)).map_or(initial[k], |p: &SE2| Pose {
+                x: p.x(),
+                y: p.y(),
+                theta: p.theta(),
+            })
+        })
+        .collect())
+}
+
+/// The graph as `.g2o` (`VERTEX_SE2`, `EDGE_SE2` with the information
+/// matrix's upper triangle): the chain's steps and the accepted closures,
+/// the poses the solver gave.
+///
+/// # Errors
+/// A [`Fatal`] error when the file cannot be written.
+pub fn write_g2o(path: &Path, nodes: &[Node], solved: &Solved) -> Result<(), Fatal> {
+    let mut out = String::new();
+    for (k, p) in solved.poses.iter().enumerate() {
+        let _ = writeln!(out, "VERTEX_SE2 {k} {:.6} {:.6} {:.6}", p.x, p.y, p.theta);
+    }
+    let mut edge = |a: usize, b: usize, d: &Pose, heading_deg: f64, xy: f64| {
+        let (ixy, it) = (1.0 / (xy * xy), 1.0 / heading_deg.to_radians().powi(2));
+        let _ = writeln!(
+            out,
+            "EDGE_SE2 {a} {b} {:.6} {:.6} {:.6} {ixy:.3} 0 0 {ixy:.3} 0 {it:.3}",
+            d.x, d.y, d.theta
+        );
+    };
+    for k in 1..nodes.len() {
+        let step = nodes[k - 1].pose.between(&nodes[k].pose);
+        let heading = (nodes[k].variance - nodes[k - 1].variance).max(0.01).sqrt();
+        edge(k - 1, k, &step, heading, 0.05 + 0.05 * step.x.hypot(step.y));
+    }
+    for c in solved.closures.iter().filter(|c| c.accepted) {
+        edge(c.from, c.to, &c.delta, CLOSURE_SIGMA_DEG, CLOSURE_SIGMA_M);
+    }
+    std::fs::write(path, out).map_err(|e| Fatal::io(format!("{}: {e}", path.display())))
+}
+
+/// Degrees wrapped to (−180, 180].
+fn wrap_deg(d: f64) -> f64 {
+    let w = (d + 180.0).rem_euclid(360.0) - 180.0;
+    if w == -180.0 {
+        180.0
+    } else {
+        w
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn closure(from: usize, to: usize, residual_deg: f64, sigma_deg: f64) -> Closure {
+        Closure {
+            from,
+            to,
+            delta: Pose::ZERO,
+            residual_deg,
+            sigma_deg,
+            offset_m: 0.0,
+            offset_gate_m: 1.0,
+            accepted: false,
+        }
+    }
+
+    #[test]
+    fn a_half_turn_closure_is_rejected_and_consistent_ones_kept() {
+        // A chain of 100 nodes, 0.25° σ a step.
+        let variances: Vec<f64> = (0..100).map(|k| k as f64 * 0.0625).collect();
+        let sigma = |a: usize, b: usize| (variances[b] - variances[a] + 4.0).sqrt();
+        let mut closures = vec![
+            closure(0, 60, 1.0, sigma(0, 60)),
+            closure(2, 62, 1.5, sigma(2, 62)),
+            closure(4, 64, 180.0, sigma(4, 64)),
+            closure(6, 66, 90.0, sigma(6, 66)),
+            // Within the gate but alone: nothing agrees with it.
+            closure(50, 99, -9.0, sigma(50, 99)),
+        ];
+        accept(&mut closures, &variances, &LoopSettings::default());
+        let accepted: Vec<bool> = closures.iter().map(|c| c.accepted).collect();
+        assert_eq!(accepted, [true, true, false, false, false]);
+    }
+
+    #[test]
+    fn a_closure_pulls_a_drifted_square_back() {
+        // A robot drives a 10 m square (4 × 10 steps of 1 m, a quarter turn
+        // at each corner) and returns to the start; the chain turned 2°
+        // too little at each corner.
+        let mut truth = vec![Pose::ZERO];
+        let mut chain = vec![Pose::ZERO];
+        for k in 0..40 {
+            let turn = if k % 10 == 9 { 90f64.to_radians() } else { 0.0 };
+            let step = |t: f64| Pose {
+                x: 1.0,
+                y: 0.0,
+                theta: t,
+            };
+            truth.push(truth[k].compose(&step(turn)));
+            chain.push(chain[k].compose(&step(
+                turn - if turn > 0.0 { 2f64.to_radians() } else { 0.0 },
+            )));
+        }
+        // The corners' steps are uncertain (σ 3°), the others 0.25°.
+        let mut variances = vec![0.0];
+        for k in 0..40 {
+            let v = if k % 10 == 9 { 9.0 } else { 0.0625 };
+            variances.push(variances[k] + v);
+        }
+        let end = truth.len() - 1;
+        let mut c = closure(0, end, 0.0, 1.0);
+        c.delta = truth[0].between(&truth[end]);
+        c.accepted = true;
+        let solved = solve(&chain, &variances, &[c]).unwrap();
+        let error = |p: &Pose, q: &Pose| wrap_deg((p.theta - q.theta).to_degrees()).abs();
+        assert!(error(&chain[end], &truth[end]) > 7.0);
+        assert!(
+            error(&solved[end], &truth[end]) < 1.0,
+            "{}",
+            error(&solved[end], &truth[end])
+        );
+        // No accepted closure: the chain as it was.
+        assert_eq!(
+            solve(&chain, &variances, &[]).unwrap()[end].theta,
+            chain[end].theta
+        );
+    }
+}
