@@ -54,7 +54,10 @@ pub(super) fn self_map_share<const W: usize, const H: usize, const RW: usize, co
     let (uw, ur) = (shift_q8(w.shift), shift_q8(r.shift));
     let (cos, sin) = sin_cos_q15::<N>(delta);
     let (cos, sin) = (i64::from(cos), i64::from(sin));
-    let turned = ((cos * uw.0 + sin * uw.1) >> 15, (cos * uw.1 - sin * uw.0) >> 15);
+    let turned = (
+        (cos * uw.0 + sin * uw.1) >> 15,
+        (cos * uw.1 - sin * uw.0) >> 15,
+    );
     let u = (ur.0 - turned.0, ur.1 - turned.1);
     // Whole cells for ICP's start, (Δcol, Δrow) = (uₓ, −u_y), rounded;
     // |u| is at most a few grid sides: the casts cannot overflow.

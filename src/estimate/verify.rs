@@ -5,11 +5,11 @@
 //! whether a rival comes close or the pose explains too little of the view.
 
 use super::answer::{pick_with_prior, verified_confidence};
-use super::self_map::self_map_share;
 use super::seed::{
     angle_search, hint_shift, inverse, peak_alpha, scale_of, seed_at, shift_q8, support_key,
     verified_translation, Seed, SeedStart, ANGLE_SEARCH_SEEDS, SEEDS, VERIFY_PEAKS,
 };
+use super::self_map::self_map_share;
 use super::{Candidate, Estimate, Estimator, Prior, Status, MAX_CANDIDATES};
 use crate::angle::Angle;
 use crate::correlation::{circular_distance, Correlation, Peak};
