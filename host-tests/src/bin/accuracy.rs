@@ -437,7 +437,7 @@ fn self_map_table(results: &[(Row, Vec<Outcome>)]) -> String {
         "\n### The self-map rule (improved mode)\n\n\
          Without → with the rule that a runner-up laying the reference onto itself at least \
          `Thresholds::self_map_ratio` (0.9) as well as the answer lays the view makes the \
-         answer ambiguous. *Wrong*: more than 5° off over the full circle, for every kind.\n\n\
+         answer ambiguous (the rule looks at a runner-up within 45° of the half turn). *Wrong*: more than 5° off over the full circle, for every kind.\n\n\
          | row | flagged | wrong among unflagged (full circle) | unflagged left |\n\
          |---|---|---|---|\n",
     );
