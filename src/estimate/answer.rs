@@ -123,10 +123,12 @@ pub struct Thresholds {
     /// [`Estimate::self_map`] reaches this: the runner-up's pose relative
     /// to the answer lays the reference onto itself at least this share as
     /// well as the answer lays the view onto the reference. Default 0.9
-    /// (chosen on the host-tests' scenes: the unflagged answers of the
-    /// symmetric scenes with independent moderate damage score 0.89–1.0,
-    /// those of random polygons and Manhattan rooms at most 0.80–0.85 at
-    /// p99; `host-tests/ACCURACY.md`, issue 48). Above 64: never.
+    /// (chosen on the host-tests' scenes at scale 1: it flags the confident
+    /// answers of symmetric scenes with independent moderate damage, which
+    /// score 0.89–1.0, and 0.0–0.8 % of the random polygons and Manhattan
+    /// rooms; 0.8 would flag 8.8 % of the Manhattan rooms at 128²; with
+    /// harsh damage the wrong half turns score 0.53–1.19 and most stay
+    /// confident: `host-tests/ACCURACY.md`, issue 48). Above 64: never.
     pub self_map_ratio: Score,
     /// With verification: [`Status::LowOverlap`] when the best pose puts less
     /// than this share of the second view within one cell of the reference.

@@ -33,6 +33,8 @@ use crate::Score;
 /// 0 when `A` is not positive. The scale of the self-map is the ratio of the
 /// two poses' scales, taken as 1 (both are searched in the same range and
 /// the self-map is refined by ICP, which keeps the scale it starts from).
+/// Not inlined: its ICP and samples are on the stack only while it runs.
+#[inline(never)]
 pub(super) fn self_map_share<const W: usize, const H: usize, const RW: usize, const N: usize>(
     reference: &Grid<W, H, RW>,
     grid: &Grid<W, H, RW>,
