@@ -134,7 +134,8 @@ fn the_motion_prior_carries_the_stream_and_keyframes_chain_it() {
 
 /// On the shared whole logs, consecutive pairs with the motion prior (the
 /// default): the figures of `docs/stream.md` as floors (per cent within 2°,
-/// per cent flagged at most, confident and > 5° off at most).
+/// per cent flagged at most, confident and > 5° off at most), and the
+/// chain's heading σ honest (`docs/drift.md`).
 #[test]
 fn shared_logs_consecutive_pairs() {
     let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/logs");
@@ -170,6 +171,30 @@ fn shared_logs_consecutive_pairs() {
             "{name}: {flagged_pc:.1} % flagged"
         );
         assert!(wrong <= wrong_max, "{name}: {wrong} confident and wrong");
+        // The chain's stated heading σ is honest: the truth lies within 2σ
+        // of the chained heading for at least 90 % of the scans (issue 46).
+        let covered = lines
+            .iter()
+            .filter(|l| {
+                let chain = &l["chain"];
+                let b = l["scan2"].as_u64().unwrap() as usize;
+                let error = wrap(f(&chain["theta_deg"]) - heading[b]).abs();
+                error <= 2.0 * f(&chain["heading_sigma_deg"])
+            })
+            .count();
+        assert!(
+            covered as f64 >= 0.9 * n,
+            "{name}: the truth within 2σ for {covered} of {n} scans"
+        );
+        // A step is never a guess that left no trace: every line says how
+        // the chain made it.
+        for l in &lines {
+            let source = l["chain"]["source"].as_str().unwrap();
+            assert!(
+                ["estimate", "prior", "unplaced", "carried"].contains(&source),
+                "{name}: source {source}"
+            );
+        }
         // The pairs alone are worse: the prior is what carries the stream.
         let (within_alone, _, _) = score(&alone, &heading);
         assert!(

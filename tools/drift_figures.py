@@ -1,0 +1,133 @@
+#!/usr/bin/env python3
+"""The heading over whole runs (issue 46): docs/drift.md's tables.
+
+For each CARMEN log with truth poses (default: ../shared/data/logs/*.log.gz
+and ../shared/data/dense/sim/*.log.gz; the first pose of a FLASER line is
+the truth), runs `hough-heading log` in each way asked (default:
+consecutive pairs with the motion prior, `--keyframes`, and consecutive
+pairs with `--loops`) and prints one markdown row per stream and way:
+
+- pairs within 2 deg / flagged / confident and > 5 deg off (the line's
+  own estimate against the log's relative heading);
+- the chained heading against the log's: largest and final error, degrees
+  (with --loops: the corrected trajectory, `--trajectory x.csv`);
+- the share of scans whose true heading lies within 2 sigma of the chained
+  one (`chain.heading_sigma_deg`);
+- the steps by source (estimate, prior, unplaced, carried);
+- with --loops: the closures tried, accepted, and accepted more than 5 deg
+  off the log's poses (the tool's stderr).
+
+Usage: python3 tools/drift_figures.py [--tool target/release/hough-heading]
+       [--ways default,keyframes,loops] [--out DIR] [LOG ...]
+"""
+
+import argparse
+import collections
+import csv
+import glob
+import json
+import math
+import os
+import re
+import subprocess
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+SHARED = os.path.join(ROOT, "..", "shared", "data")
+WAYS = {"default": [], "keyframes": ["--keyframes"], "loops": ["--loops"]}
+
+
+def wrap(d):
+    return (d + 180.0) % 360.0 - 180.0
+
+
+def run(tool, log, way, out):
+    name = os.path.basename(log).replace(".log.gz", "")
+    base = os.path.join(out, f"{name}.{way}")
+    args = [tool, "log", log] + WAYS[way] + ["--trajectory", base + ".csv"]
+    with open(base + ".jsonl", "w") as o, open(base + ".err", "w") as e:
+        subprocess.run(args, stdout=o, stderr=e, check=False)
+    lines = [json.loads(x) for x in open(base + ".jsonl") if x.strip()]
+    err = open(base + ".err").read()
+    return name, lines, err, base + ".csv"
+
+
+def score(lines, err, csv_path, way):
+    truth = {lines[0]["scan1"]: 0.0} if lines else {}
+    for r in lines:
+        if "log_pose" in r and r["scan1"] in truth:
+            truth[r["scan2"]] = truth[r["scan1"]] + r["log_pose"]["dtheta_deg"]
+    n = within = flagged = wrong = covered = 0
+    sources = collections.Counter()
+    drift_max = drift_end = 0.0
+    for r in lines:
+        b = r["scan2"]
+        if b not in truth or "log_pose" not in r:
+            continue
+        n += 1
+        if r.get("dtheta_deg") is None:
+            flagged += 1
+        else:
+            e = abs(wrap(r["dtheta_deg"] - r["log_pose"]["dtheta_deg"]))
+            within += e <= 2.0
+            if r["status"] != "confident":
+                flagged += 1
+            elif e > 5.0:
+                wrong += 1
+        c = r.get("chain")
+        if c:
+            sources[c["source"]] += 1
+            e = wrap(c["theta_deg"] - truth[b])
+            covered += abs(e) <= 2.0 * c.get("heading_sigma_deg", 0.0)
+            drift_max, drift_end = max(drift_max, abs(e)), e
+    if way == "loops" and os.path.exists(csv_path):
+        drift_max = drift_end = 0.0
+        for row in csv.DictReader(open(csv_path)):
+            if row.get("log_theta"):
+                e = wrap(math.degrees(float(row["theta"]) - float(row["log_theta"])))
+                drift_max, drift_end = max(drift_max, abs(e)), e
+    closures = re.search(r"loop closures: (\d+) confident tried, (\d+) accepted", err)
+    wrong_closures = re.search(r"poses: (\d+) of the accepted", err)
+    return {
+        "n": n,
+        "within": 100.0 * within / max(n, 1),
+        "flagged": 100.0 * flagged / max(n, 1),
+        "wrong": wrong,
+        "max": drift_max,
+        "end": drift_end,
+        "cover": 100.0 * covered / max(n, 1),
+        "sources": sources,
+        "closures": closures.groups() + (wrong_closures.group(1) if wrong_closures else None,)
+        if closures
+        else None,
+    }
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--tool", default=os.path.join(ROOT, "target", "release", "hough-heading"))
+    p.add_argument("--ways", default="default,keyframes,loops")
+    p.add_argument("--out", default=os.path.join(ROOT, "target", "drift"))
+    p.add_argument("logs", nargs="*")
+    a = p.parse_args()
+    logs = a.logs or sorted(glob.glob(os.path.join(SHARED, "logs", "*.log.gz"))) + sorted(
+        glob.glob(os.path.join(SHARED, "dense", "sim", "*.log.gz")))
+    os.makedirs(a.out, exist_ok=True)
+    print("| stream | way | pairs | within 2° | flagged | conf. > 5° off | heading error max / end (°) "
+          "| truth within 2σ | steps: estimate / prior / unplaced / carried | closures tried / accepted / wrong |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for log in logs:
+        for way in a.ways.split(","):
+            name, lines, err, csv_path = run(a.tool, log, way, a.out)
+            s = score(lines, err, csv_path, way)
+            src = s["sources"]
+            c = s["closures"]
+            closures = f"{c[0]} / {c[1]} / {c[2] or 0}" if c else "–"
+            print(f"| {name} | {way} | {s['n']} | {s['within']:.1f} % | {s['flagged']:.1f} % | {s['wrong']} "
+                  f"| {s['max']:.1f} / {s['end']:.1f} | {s['cover']:.1f} % "
+                  f"| {src['estimate']} / {src['prior']} / {src['unplaced']} / {src['carried']} | {closures} |",
+                  flush=True)
+
+
+if __name__ == "__main__":
+    main()
