@@ -201,8 +201,6 @@ pub struct Outcome {
     /// A listed candidate is within [`GROSS_DEG`] of the truth (modulo 180°
     /// for half-turn symmetric scenes).
     pub truth_listed: bool,
-    /// [`Estimate::self_map`], when measured.
-    pub self_map: Option<f64>,
 }
 
 impl Outcome {
@@ -215,18 +213,6 @@ impl Outcome {
     /// [`Status::LowOverlap`] counts).
     pub fn flagged(&self) -> bool {
         self.status != Status::Confident
-    }
-
-    /// The status without the self-map rule ([`Thresholds::self_map_ratio`]
-    /// out of reach): [`Status::Confident`] where only that rule flagged the
-    /// answer (the self-map is measured only where the answer is otherwise
-    /// confident).
-    pub fn status_without_self_map(&self) -> Status {
-        let ratio = Thresholds::DEFAULT.self_map_ratio.to_num::<f64>();
-        match self.self_map {
-            Some(s) if s >= ratio && self.status != Status::LowOverlap => Status::Confident,
-            _ => self.status,
-        }
     }
 
     /// The status the library would report with thresholds `t` without the
@@ -309,7 +295,6 @@ pub fn outcome(estimate: &Estimate, truth: &Transform, half_turn_symmetric: bool
             .candidates
             .iter()
             .any(|c| error_of(c.alpha) <= GROSS_DEG),
-        self_map: estimate.self_map.map(|s| s.to_num()),
     }
 }
 

@@ -62,8 +62,8 @@ mod common;
 /// Thresholds anywhere in their sane range (the extremes are finding F7 of
 /// `adversarial.rs`): ratios and margins in [0, 2] with at least 1/1024,
 /// shift fractions and the minimum overlap in [0, 1], the alignment ratio in
-/// [0, 2]; the decision gap, the free-space weight and the self-map ratio from just
-/// below 0 to beyond their clamps; a work budget from none left to a few million grid
+/// [0, 2]; the decision gap and the free-space weight from just below 0 to
+/// beyond their clamps; a work budget from none left to a few million grid
 /// rows (what an ordinary 64² pair spends), or none at all.
 fn thresholds() -> impl Strategy<Value = Thresholds> {
     (
@@ -77,10 +77,9 @@ fn thresholds() -> impl Strategy<Value = Thresholds> {
             -1i32..=1 << 16,
             -1i32..=70 << 16,
             prop_oneof![0u32..3_000_000, Just(u32::MAX)],
-            -1i32..=70 << 16,
         ),
     )
-        .prop_map(|(r, d, m, s, a, o, (g, f, b, y))| Thresholds {
+        .prop_map(|(r, d, m, s, a, o, (g, f, b))| Thresholds {
             rival_ratio: Score::from_bits(r),
             direction_margin: Score::from_bits(d),
             min_occupied: m,
@@ -90,7 +89,6 @@ fn thresholds() -> impl Strategy<Value = Thresholds> {
             decision_gap: Score::from_bits(g),
             free_space_weight: Score::from_bits(f),
             search_budget: b,
-            self_map_ratio: Score::from_bits(y),
         })
 }
 

@@ -119,17 +119,6 @@ pub struct Thresholds {
     /// With verification on scans: how much a free-space violation share
     /// costs in [`Candidate::support`] (clamped to [0, 64]). Default 2.
     pub free_space_weight: Score,
-    /// With verification: ambiguous (and a confidence below ½) when
-    /// [`Estimate::self_map`] reaches this: the runner-up's pose relative
-    /// to the answer lays the reference onto itself at least this share as
-    /// well as the answer lays the view onto the reference. Default 0.9
-    /// (chosen on the host-tests' scenes at scale 1: it flags the confident
-    /// answers of symmetric scenes with independent moderate damage, which
-    /// score 0.89–1.0, and 0.0–0.8 % of the random polygons and Manhattan
-    /// rooms; 0.8 would flag 8.8 % of the Manhattan rooms at 128²; with
-    /// harsh damage the wrong half turns score 0.53–1.19 and most stay
-    /// confident: `host-tests/ACCURACY.md`, issue 48). Above 64: never.
-    pub self_map_ratio: Score,
     /// With verification: [`Status::LowOverlap`] when the best pose puts less
     /// than this share of the second view within one cell of the reference.
     /// Default 0.30 (chosen on the real scan pairs, README).
@@ -165,7 +154,6 @@ impl Thresholds {
         free_space_weight: Score::from_bits(131_072), // 2
         min_overlap: Score::from_bits(19_661),        // 0.30
         search_budget: 1 << 26,
-        self_map_ratio: Score::from_bits(58_982), // 0.9
     };
 }
 
@@ -206,17 +194,6 @@ pub struct Estimate {
     /// its own threshold on [`Candidate::support`]; `None` without
     /// verification or when no other rotation was found.
     pub runner_up: Option<Candidate>,
-    /// With verification, when the answer would otherwise be
-    /// [`Status::Confident`]: how well the runner-up's pose, once the
-    /// answer's is undone, lays the reference onto itself (refined by ICP,
-    /// support judged both ways), as a share of the answer's support, in
-    /// [0, 64]. At [`Thresholds::self_map_ratio`] or above the scene maps
-    /// onto itself about as well as the views onto each other (a corridor,
-    /// a centrally symmetric room) and the answer is ambiguous
-    /// ([`Status::AmbiguousDirection`] when the runner-up lies within 45° of
-    /// the half turn, else [`Status::AmbiguousAxis`]). `None` when not
-    /// measured (no verification, no runner-up, or already not confident).
-    pub self_map: Option<Score>,
     /// With verification: the share of the second view's sampled cells that
     /// the chosen pose puts within one cell of the reference, in [0, 1];
     /// 0 without verification.
@@ -251,7 +228,6 @@ impl Estimate {
             },
             candidates: Vec::new(),
             runner_up: None,
-            self_map: None,
             overlap: Score::ZERO,
             translation: None,
             search_rows: 0,

@@ -8,7 +8,6 @@
 
 mod answer;
 mod seed;
-mod self_map;
 mod verify;
 
 pub use answer::{Candidate, Estimate, Prior, Status, Thresholds, MAX_CANDIDATES};
@@ -312,7 +311,6 @@ impl<
             half_turn: test,
             candidates,
             runner_up: None,
-            self_map: None,
             overlap: Score::ZERO,
             translation: if alpha == chosen_alpha {
                 translation

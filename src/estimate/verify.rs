@@ -9,7 +9,6 @@ use super::seed::{
     angle_search, hint_shift, inverse, peak_alpha, scale_of, seed_at, shift_q8, support_key,
     verified_translation, Seed, SeedStart, ANGLE_SEARCH_SEEDS, SEEDS, VERIFY_PEAKS,
 };
-use super::self_map::self_map_share;
 use super::{Candidate, Estimate, Estimator, Prior, Status, MAX_CANDIDATES};
 use crate::angle::Angle;
 use crate::correlation::{circular_distance, Correlation, Peak};
@@ -278,39 +277,18 @@ impl<
             None => support,
         };
         let mut confidence = verified_confidence(overlap, gap, &t);
-        // A runner-up that lays the reference onto itself (after the
-        // answer's pose is undone) about as well as the answer lays the view
-        // onto the reference: the scene is symmetric, and the supports' lead
-        // is where the damage fell. Measured only where it decides.
-        let near_half_turn = rival.is_some_and(|r| {
-            r.placement
-                .alpha
-                .distance(winner.placement.alpha + Angle::HALF_TURN)
-                < Angle::from_steps_q16(((N / 8) as i64) << 16, N)
-        });
-        let self_map = rival
-            .filter(|_| near_half_turn)
-            .filter(|_| overlap >= t.min_overlap && !cut && gap >= t.decision_gap)
-            .map(|r| {
-                self_map_share::<W, H, RW, N>(
-                    reference.grid(),
-                    grid,
-                    free,
-                    (&winner, alpha, u_q8),
-                    &r,
-                    &t,
-                )
-            });
-        let mirrored = self_map.is_some_and(|s| s >= t.self_map_ratio);
         let status = if overlap < t.min_overlap {
             Status::LowOverlap
         } else if cut {
             confidence = confidence.min(Score::from_bits((1 << 15) - 1));
             Status::SearchCut
-        } else if gap < t.decision_gap || mirrored {
-            if mirrored {
-                confidence = confidence.min(Score::from_bits((1 << 15) - 1));
-            }
+        } else if gap < t.decision_gap {
+            let near_half_turn = rival.is_some_and(|r| {
+                r.placement
+                    .alpha
+                    .distance(winner.placement.alpha + Angle::HALF_TURN)
+                    < Angle::from_steps_q16(((N / 8) as i64) << 16, N)
+            });
             if near_half_turn {
                 Status::AmbiguousDirection
             } else {
@@ -398,7 +376,6 @@ impl<
             half_turn: test,
             candidates,
             runner_up: rival.map(|r| candidate(&r, false)),
-            self_map,
             overlap,
             translation,
             search_rows,

@@ -48,7 +48,7 @@ pub(crate) struct Tally {
 
 impl Tally {
     /// `Σ score / (2·points)` in [0, 1] (0 without points).
-    pub(crate) fn alignment(&self) -> Score {
+    fn alignment(&self) -> Score {
         share(u32::from(self.score), 2 * u32::from(self.points))
     }
 
@@ -85,15 +85,6 @@ impl Agreement {
     pub(crate) fn support(&self, weight: Score) -> Score {
         let weight = weight.clamp(Score::ZERO, Score::from_num(64));
         self.alignment() - self.violation().saturating_mul(weight)
-    }
-
-    /// [`Self::support`] with the better of the two directions' alignments
-    /// instead of their mean: how well the pose explains the view that is
-    /// covered by the other (a partial view lays onto a whole one).
-    pub(crate) fn support_one_way(&self, weight: Score) -> Score {
-        let weight = weight.clamp(Score::ZERO, Score::from_num(64));
-        let best = self.forward.alignment().max(self.backward.alignment());
-        best - self.violation().saturating_mul(weight)
     }
 }
 

@@ -186,16 +186,6 @@ fn rows(quick: bool) -> Vec<Row> {
             rows.push(row(kind, size, Damage::PRESETS[1], false, false));
         }
     }
-    // The half-turn-symmetric kinds, independent damage, at scale 1: the
-    // rows of the runner-up rule (issue 48 item 4), judged over the full
-    // circle in their own table.
-    for &size in sizes {
-        for kind in [SceneKind::Corridor, SceneKind::CentrallySymmetric] {
-            for damage in &Damage::PRESETS[1..3] {
-                rows.push(row(kind, size, *damage, false, true));
-            }
-        }
-    }
     for &size in sizes {
         for kind in [SceneKind::RandomPolygon, SceneKind::ManhattanRoom] {
             rows.push(Row {
@@ -423,51 +413,6 @@ fn status_breakdown(results: &[(Row, Vec<Outcome>)]) -> String {
             pct(share(Status::SearchCut)),
             pct(unobservable),
             pct(right),
-        ));
-    }
-    out
-}
-
-/// The self-map rule (issue 48 item 4) row by row: flagged and wrong among
-/// unflagged without the rule (its answers re-read as confident) and with
-/// it. Wrong: more than 5° off over the full circle, for every kind (the
-/// symmetric kinds too: a confident half turn is a wrong answer).
-fn self_map_table(results: &[(Row, Vec<Outcome>)]) -> String {
-    let mut out = String::from(
-        "\n### The self-map rule (improved mode)\n\n\
-         Without → with the rule that a runner-up laying the reference onto itself at least \
-         `Thresholds::self_map_ratio` (0.9) as well as the answer lays the view makes the \
-         answer ambiguous (the rule looks at a runner-up within 45° of the half turn). *Wrong*: more than 5° off over the full circle, for every kind.\n\n\
-         | row | flagged | wrong among unflagged (full circle) | unflagged left |\n\
-         |---|---|---|---|\n",
-    );
-    for (row, outcomes) in results {
-        let n = outcomes.len().max(1) as f64;
-        let figures = |status: &dyn Fn(&Outcome) -> Status| {
-            let unflagged: Vec<&Outcome> = outcomes
-                .iter()
-                .filter(|o| status(o) == Status::Confident)
-                .collect();
-            let wrong = unflagged
-                .iter()
-                .filter(|o| o.full_error_deg > GROSS_DEG)
-                .count();
-            let share = if unflagged.is_empty() {
-                f64::NAN
-            } else {
-                wrong as f64 / unflagged.len() as f64
-            };
-            (1.0 - unflagged.len() as f64 / n, share, unflagged.len())
-        };
-        let (f0, w0, _) = figures(&|o| o.status_without_self_map());
-        let (f1, w1, left) = figures(&|o| o.status);
-        out.push_str(&format!(
-            "| {} | {} → {} | {} → {} | {left} |\n",
-            row.label(),
-            pct(f0),
-            pct(f1),
-            pct(w0),
-            pct(w1),
         ));
     }
     out
@@ -856,7 +801,7 @@ fn main() {
         let mut f = std::io::BufWriter::new(file);
         let _ = writeln!(
             f,
-            "row,mode,trial,error,axis_error,full_error,wrong_half_turn,status,correlation,rival,margin,t_error,t_unobservable,direct,flipped,confidence,overlap,support,runner_up_support,truth_listed,self_map"
+            "row,mode,trial,error,axis_error,full_error,wrong_half_turn,status,correlation,rival,margin,t_error,t_unobservable,direct,flipped,confidence,overlap,support,runner_up_support,truth_listed"
         );
         f
     });
@@ -904,7 +849,7 @@ fn main() {
                 for (i, o) in outcomes.iter().enumerate() {
                     let _ = writeln!(
                         dump,
-                        "{},{mode},{i},{:.4},{:.4},{:.4},{},{:?},{:.4},{:.4},{:.4},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{:.4}",
+                        "{},{mode},{i},{:.4},{:.4},{:.4},{},{:?},{:.4},{:.4},{:.4},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{}",
                         row.label(),
                         o.error_deg,
                         o.axis_error_deg,
@@ -923,7 +868,6 @@ fn main() {
                         o.supports.0,
                         o.supports.1,
                         o.truth_listed,
-                        o.self_map.unwrap_or(f64::NAN),
                     );
                 }
             }
@@ -934,7 +878,6 @@ fn main() {
     let mut report = table;
     report.push_str(&targets(&improved_results));
     report.push_str(&status_breakdown(&improved_results));
-    report.push_str(&self_map_table(&improved_results));
     report.push_str(&sweep(&unverified_results));
     if mismatched_statuses > 0 {
         report.push_str(&format!(

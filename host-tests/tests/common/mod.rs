@@ -26,8 +26,7 @@ pub fn proptest_config(default_seed: u64) -> ProptestConfig {
 /// `min_overlap`; otherwise `Confident` exactly when the winner's support
 /// (the first candidate's) leads the runner-up's (`Estimate::runner_up`, or
 /// 0 without one; no lead when both align every sampled point on an
-/// occupied cell) by at least `decision_gap` and its self-map
-/// (`Estimate::self_map`, when measured) stays below `self_map_ratio`, and exactly when the
+/// occupied cell) by at least `decision_gap`, and exactly when the
 /// confidence is at least ½; when not confident, `AmbiguousDirection` when
 /// the runner-up lies within `N/8` steps of the winner's half turn,
 /// `AmbiguousAxis` when farther. The winner's reported α is refined after
@@ -85,14 +84,7 @@ pub fn check_status_rule<const N: usize>(
         let d = (deg(a) - deg(b)).rem_euclid(360.0);
         d.min(360.0 - d)
     };
-    // The self-map rule: measured only where the gap would make the answer
-    // confident (and the runner-up lies within an octant of the half turn);
-    // at `self_map_ratio` or above the answer is ambiguous all the same.
-    if e.self_map.is_some() {
-        prop_assert!(gap >= t.decision_gap, "{:?}", e);
-    }
-    let mirrored = e.self_map.is_some_and(|s| s >= t.self_map_ratio);
-    let confident = gap >= t.decision_gap && !mirrored;
+    let confident = gap >= t.decision_gap;
     prop_assert_eq!(e.status == Status::Confident, confident, "{:?}", e);
     prop_assert_eq!(e.confidence >= Score::from_num(0.5), confident, "{:?}", e);
     if let (false, Some(r)) = (confident, e.runner_up) {

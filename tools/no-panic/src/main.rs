@@ -87,7 +87,6 @@ fn opaque_thresholds() -> Thresholds {
         decision_gap: Score::from_bits(opaque(0)),
         free_space_weight: Score::from_bits(opaque(0)),
         search_budget: opaque(0),
-        self_map_ratio: Score::from_bits(opaque(0)),
     }
 }
 
