@@ -3,7 +3,7 @@
 //! ```text
 //! budgets run --machine MACHINE [--timeout SECONDS] ELF
 //! budgets report [--check] [--only SIDExSIDE/N|real-scans/…|lidar] [--root DIR] [--plugin LIB]
-//! budgets profile --machine MACHINE [--region NAME] [--minus NAME] [--cycle N] [--top N] [--root DIR] [--plugin LIB] ELF
+//! budgets profile --machine MACHINE [--region NAME] [--minus NAME] [--cycle N [--floats]] [--top N] [--root DIR] [--plugin LIB] ELF
 //! budgets floats [--root DIR] [--target-dir DIR] TRIPLE...
 //! ```
 //!
@@ -41,7 +41,9 @@
 //! `--cycle N` the regions are numbered, not named: `--region K` sums region
 //! `K` of every round of `N` after the overhead (the real-scan firmware
 //! measures 7 a pair: `--cycle 7 --region 4` is the estimate, 5 the check on
-//! the beams).
+//! the beams). `--cycle N --floats` prints instead, for every region of the
+//! round, its instructions and those inside the software floating-point
+//! routines (`tools/float_cost.sh`).
 //!
 //! `floats` reads every firmware example's release ELF for each target
 //! triple given and fails when one links a software floating-point routine
@@ -149,6 +151,7 @@ fn profile(args: &[String]) -> Result<ExitCode, Error> {
         top: option(args, "--top").map_or(Ok(25), str::parse)?,
         scratch: root.join("target/budgets"),
         root: root.clone(),
+        floats: args.iter().any(|a| a == "--floats"),
     })?;
     Ok(ExitCode::SUCCESS)
 }
