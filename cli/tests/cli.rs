@@ -502,8 +502,9 @@ fn scan_lines(args: &[&str]) -> Vec<serde_json::Value> {
 /// budget's, the refinement's and the check's tests share them (each test
 /// runs its own variants).
 fn default_answers(path: &str, limit: Option<usize>) -> Arc<Vec<serde_json::Value>> {
-    type Answers = Arc<OnceLock<Arc<Vec<serde_json::Value>>>>;
-    static RUNS: OnceLock<Mutex<HashMap<(String, Option<usize>), Answers>>> = OnceLock::new();
+    /// A run's key (file, limit) and its answers, once computed.
+    type Runs = HashMap<(String, Option<usize>), Arc<OnceLock<Arc<Vec<serde_json::Value>>>>>;
+    static RUNS: OnceLock<Mutex<Runs>> = OnceLock::new();
     let run = RUNS
         .get_or_init(Mutex::default)
         .lock()
