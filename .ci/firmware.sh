@@ -94,5 +94,11 @@ section "keyframe odometry on the Cortex-M4F"
 section "examples build for riscv32imac-unknown-none-elf"
 cargo build --release -p hough-heading --examples --target riscv32imac-unknown-none-elf
 
+# Software floating point (issue 48 item 8): every example on every target
+# against the allow-list the README states (`budgets floats`); the estimate
+# alone (the bench) links none, as the budgets check too.
+section "software floating point of every firmware example (README's allow-list)"
+"$budgets" floats --target-dir "$target_dir" "${ARM_TARGETS[@]}" riscv32imac-unknown-none-elf
+
 section "budgets"
 bash tools/budgets.sh $budget_mode

@@ -7,7 +7,7 @@
 //!
 //! ```text
 //! HH_BENCH_SIDE=256 HH_BENCH_N_THETA=360 \
-//!     cargo build --release --example bench --target thumbv7em-none-eabihf
+//!     cargo build --release -p hough-heading --example bench --target thumbv7em-none-eabihf
 //! ```
 //!
 //! Two `SIDE × SIDE` room outlines live in flash, the second turned by 30° and

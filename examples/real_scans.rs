@@ -42,7 +42,7 @@
 //! low-water mark, for the budget table's real-scan rows.
 //!
 //! ```text
-//! cargo build --release --example real_scans --target thumbv6m-none-eabi
+//! cargo build --release -p hough-heading --example real_scans --target thumbv6m-none-eabi
 //! target/tools/debug/budgets run --machine microbit --timeout 120 \
 //!     target/thumbv6m-none-eabi/release/examples/real_scans > m0.log
 //! cargo run --release --bin hough-heading -- mcu check host-tests/data/real-pairs.bin m0.log

@@ -84,6 +84,24 @@ mod firmware {
         Pose::turned(-135.0),
     ];
 
+    /// Each pose as the check compares it, computed at build time so the
+    /// firmware links no floating point: rotation (whole degrees) and shift
+    /// (thousandths of a cell).
+    const EXPECTED: [(i32, i32, i32); 5] = {
+        let mut out = [(0, 0, 0); 5];
+        let mut i = 0;
+        while i < out.len() {
+            let p = POSES[i];
+            out[i] = (
+                p.degrees as i32,
+                (p.dx * 1000.0) as i32,
+                (p.dy * 1000.0) as i32,
+            );
+            i += 1;
+        }
+        out
+    };
+
     /// The later views, as the robot's sensor would deliver them.
     static VIEWS: [View; 5] = [
         Grid::from_words(room_words::<SIDE, SIDE, RW>(POSES[0])),
@@ -110,16 +128,16 @@ mod firmware {
         );
 
         let mut failures = 0u32;
-        for (i, (view, pose)) in VIEWS.iter().zip(POSES).enumerate() {
+        for (i, (view, (degrees, dx_milli, dy_milli))) in VIEWS.iter().zip(EXPECTED).enumerate() {
             let Ok(estimate) = support::timed(&mut pin, || estimator.estimate(reference, view));
-            let expected = support::angle_of_degrees(pose.degrees as i32);
+            let expected = support::angle_of_degrees(degrees);
             let error = support::error_millidegrees(estimate.alpha, expected);
             // Q16.16 to thousandths.
             let milli = |v: Score| ((i64::from(v.to_bits()) * 1000) >> 16) as i32;
             let (ex, ey) = estimate.translation.map_or((i32::MAX, i32::MAX), |t| {
                 (
-                    milli(t.x).saturating_sub((pose.dx * 1000.0) as i32),
-                    milli(t.y).saturating_sub((pose.dy * 1000.0) as i32),
+                    milli(t.x).saturating_sub(dx_milli),
+                    milli(t.y).saturating_sub(dy_milli),
                 )
             });
             let overlap = milli(estimate.overlap);

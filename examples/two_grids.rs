@@ -38,7 +38,7 @@
 //! cell.
 //!
 //! ```text
-//! cargo build --release --example two_grids --target thumbv7em-none-eabihf
+//! cargo build --release -p hough-heading --example two_grids --target thumbv7em-none-eabihf
 //! qemu-system-arm -machine mps2-an386 -display none -semihosting-config enable=on,target=native \
 //!     -kernel target/thumbv7em-none-eabihf/release/examples/two_grids | defmt-print -e ...
 //! ```

@@ -4,8 +4,10 @@
 
 mod common;
 
+use std::collections::HashMap;
 use std::path::Path;
 use std::process::Command;
+use std::sync::{Arc, Mutex, OnceLock};
 
 use common::{data_dir, scratch, stderr, stdout, tool};
 use hough_heading::Mode;
@@ -495,6 +497,33 @@ fn scan_lines(args: &[&str]) -> Vec<serde_json::Value> {
         .collect()
 }
 
+/// The tool's default answers at 128² (`scans -q --size 128 [--limit N]
+/// FILE`) on a shared pair file, run once per test binary: the work
+/// budget's, the refinement's and the check's tests share them (each test
+/// runs its own variants).
+fn default_answers(path: &str, limit: Option<usize>) -> Arc<Vec<serde_json::Value>> {
+    /// A run's key (file, limit) and its answers, once computed.
+    type Runs = HashMap<(String, Option<usize>), Arc<OnceLock<Arc<Vec<serde_json::Value>>>>>;
+    static RUNS: OnceLock<Mutex<Runs>> = OnceLock::new();
+    let run = RUNS
+        .get_or_init(Mutex::default)
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .entry((path.to_string(), limit))
+        .or_default()
+        .clone();
+    run.get_or_init(|| {
+        let limit = limit.map(|n| n.to_string());
+        let mut args = vec!["scans", "-q", "--size", "128"];
+        if let Some(n) = &limit {
+            args.extend(["--limit", n]);
+        }
+        args.push(path);
+        Arc::new(scan_lines(&args))
+    })
+    .clone()
+}
+
 /// The default work budget (`Thresholds::search_budget`, 2²⁶ grid rows)
 /// cuts none of the first 150 pairs of each FLIRT file at 128² (the most
 /// any shared pair spends there is 10.0 M rows), and a budget of 2²⁰ rows
@@ -510,19 +539,24 @@ fn the_default_work_budget_cuts_no_real_pair() {
         .iter()
         .map(|f| dir.join(f).display().to_string())
         .collect();
-    let run = |budget: Option<&str>| {
-        let mut args = vec!["scans", "-q", "--size", "128", "--limit", "150"];
-        if let Some(b) = budget {
-            args.extend(["--search-budget", b]);
-        }
-        args.extend(paths.iter().map(String::as_str));
-        scan_lines(&args)
-    };
     let status = |v: &serde_json::Value| v["status"].as_str().unwrap_or("").to_string();
-    let default = run(None);
+    // The first 150 pairs of each: fr079's whole run (the check's test) and
+    // intel's first 200 (the refinement's).
+    let (fr079, intel) = (
+        default_answers(&paths[0], None),
+        default_answers(&paths[1], Some(200)),
+    );
+    let default: Vec<_> = fr079
+        .iter()
+        .take(150)
+        .chain(intel.iter().take(150))
+        .collect();
     assert_eq!(default.len(), 300);
     assert!(default.iter().all(|v| status(v) != "search_cut"));
-    let tight = run(Some("1048576"));
+    let mut args = vec!["scans", "-q", "--size", "128", "--limit", "150"];
+    args.extend(["--search-budget", "1048576"]);
+    args.extend(paths.iter().map(String::as_str));
+    let tight = scan_lines(&args);
     let cut: Vec<_> = tight.iter().filter(|v| status(v) == "search_cut").collect();
     assert!(!cut.is_empty(), "2^20 rows cut nothing");
     // Below ½ (the JSON's four decimals round the cap, ½ − 2⁻¹⁶, to 0.5).
@@ -548,21 +582,25 @@ fn the_refinement_on_the_beams_brings_real_pairs_closer_to_the_truth() {
         return;
     };
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data");
-    let run = |file: &str, extra: &[&str]| {
-        let path = dir.join(file).display().to_string();
-        let mut args = vec!["scans", "-q", "--size", "128", "--limit", "200", &path];
-        args.extend(extra);
-        scan_lines(&args)
-    };
     let (mut rotation, mut translation) = ([vec![], vec![]], [vec![], vec![]]);
     for (file, text) in files.iter().zip(&texts) {
-        let grid = run(file, &["--no-beam-refine"]);
-        let beams = run(file, &[]);
+        let path = dir.join(file).display().to_string();
+        let grid = scan_lines(&[
+            "scans",
+            "-q",
+            "--size",
+            "128",
+            "--limit",
+            "200",
+            &path,
+            "--no-beam-refine",
+        ]);
+        let beams = default_answers(&path, Some(200));
         assert!(grid.iter().all(|v| v.get("beam_fit").is_none()));
         assert!(beams
             .iter()
             .any(|v| v["beam_fit"]["pairs"].as_u64() > Some(10)));
-        for ((line, g), b) in text.lines().zip(&grid).zip(&beams) {
+        for ((line, g), b) in text.lines().zip(&grid).zip(beams.iter()) {
             let truth: serde_json::Value = serde_json::from_str(line).unwrap();
             if truth["check"]["overlap_gt"]
                 .as_f64()
@@ -625,18 +663,14 @@ fn the_check_on_the_beams_flags_and_fixes_wrong_answers() {
         .join(file)
         .display()
         .to_string();
-    let run = |extra: &[&str]| {
-        let mut args = vec!["scans", "-q", "--size", "128", &path];
-        args.extend(extra);
-        scan_lines(&args)
-    };
-    let (unchecked, checked) = (run(&["--no-beam-check"]), run(&[]));
+    let unchecked = scan_lines(&["scans", "-q", "--size", "128", &path, "--no-beam-check"]);
+    let checked = default_answers(&path, None);
     assert!(unchecked.iter().all(|v| v.get("beam_check").is_none()));
     // [right, wrong] among the confident answers, before and after;
     // pairs the switches bring within 2° and take out.
     let (mut before, mut after) = ([0u32; 2], [0u32; 2]);
     let (mut fixed, mut broken) = (0, 0);
-    for ((line, u), c) in text.lines().zip(&unchecked).zip(&checked) {
+    for ((line, u), c) in text.lines().zip(&unchecked).zip(checked.iter()) {
         let truth: serde_json::Value = serde_json::from_str(line).unwrap();
         let dtheta = truth["dtheta"].as_f64().unwrap().to_degrees();
         let err =

@@ -3,7 +3,8 @@
 //! ```text
 //! budgets run --machine MACHINE [--timeout SECONDS] ELF
 //! budgets report [--check] [--only SIDExSIDE/N|real-scans/…|lidar] [--root DIR] [--plugin LIB]
-//! budgets profile --machine MACHINE [--region NAME] [--minus NAME] [--cycle N] [--top N] [--root DIR] [--plugin LIB] ELF
+//! budgets profile --machine MACHINE [--region NAME] [--minus NAME] [--cycle N [--floats]] [--top N] [--root DIR] [--plugin LIB] ELF
+//! budgets floats [--root DIR] [--target-dir DIR] TRIPLE...
 //! ```
 //!
 //! `run` starts a firmware ELF on a `qemu-system-arm` machine with semihosting,
@@ -40,10 +41,17 @@
 //! `--cycle N` the regions are numbered, not named: `--region K` sums region
 //! `K` of every round of `N` after the overhead (the real-scan firmware
 //! measures 7 a pair: `--cycle 7 --region 4` is the estimate, 5 the check on
-//! the beams).
+//! the beams). `--cycle N --floats` prints instead, for every region of the
+//! round, its instructions and those inside the software floating-point
+//! routines (`tools/float_cost.sh`).
+//!
+//! `floats` reads every firmware example's release ELF for each target
+//! triple given and fails when one links a software floating-point routine
+//! beyond the class the README's allow-list gives it (`floats.rs`).
 
 mod elf;
 mod firmware;
+mod floats;
 mod lidar;
 mod profile;
 mod qemu;
@@ -66,9 +74,11 @@ fn main() -> ExitCode {
         Some("run") => run(&args[1..]),
         Some("report") => report(&args[1..]),
         Some("profile") => profile(&args[1..]),
+        Some("floats") => floats(&args[1..]),
         _ => Err(
             "usage: budgets run --machine M [--timeout S] ELF | budgets report [--check] [--only SIDExSIDE/N|lidar] \
-             | budgets profile --machine M [--region NAME] [--minus NAME] [--top N] ELF"
+             | budgets profile --machine M [--region NAME] [--minus NAME] [--top N] ELF \
+             | budgets floats [--root DIR] [--target-dir DIR] TRIPLE..."
                 .into(),
         ),
     };
@@ -141,8 +151,46 @@ fn profile(args: &[String]) -> Result<ExitCode, Error> {
         top: option(args, "--top").map_or(Ok(25), str::parse)?,
         scratch: root.join("target/budgets"),
         root: root.clone(),
+        floats: args.iter().any(|a| a == "--floats"),
     })?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// `budgets floats [--root DIR] [--target-dir DIR] TRIPLE...`: every
+/// firmware example's software floating point (release builds under
+/// `--target-dir`, default `<root>/target`) against the README's allow-list
+/// (`floats.rs`); fails when one links more than its class.
+fn floats(args: &[String]) -> Result<ExitCode, Error> {
+    let root = PathBuf::from(option(args, "--root").unwrap_or("."));
+    let target_dir =
+        option(args, "--target-dir").map_or_else(|| root.join("target"), PathBuf::from);
+    let mut triples = Vec::new();
+    let mut rest = args.iter();
+    while let Some(arg) = rest.next() {
+        match arg.as_str() {
+            "--root" | "--target-dir" => {
+                rest.next();
+            }
+            triple => triples.push(triple),
+        }
+    }
+    if triples.is_empty() {
+        return Err("floats: no target triple given".into());
+    }
+    let ok = floats::check(
+        &root.join("README.md"),
+        &root.join("examples"),
+        &target_dir,
+        &triples,
+    )?;
+    Ok(if ok {
+        ExitCode::SUCCESS
+    } else {
+        eprintln!(
+            "budgets: a firmware example links floating point its README class does not allow"
+        );
+        ExitCode::FAILURE
+    })
 }
 
 /// `budgets report [--check] [--only SIDExSIDE/N|real-scans/…|lidar]`.

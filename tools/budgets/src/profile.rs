@@ -53,6 +53,10 @@ pub struct Request<'a> {
     pub scratch: PathBuf,
     /// Source root: lines under `<root>/src/` are the library's.
     pub root: PathBuf,
+    /// With `cycle`: instead of the tables, one line per region of the
+    /// round: its instructions and those inside the software
+    /// floating-point routines (`elf::is_float_routine`), per round.
+    pub floats: bool,
 }
 
 /// One region of the profile file.
@@ -89,6 +93,9 @@ pub fn run(request: &Request<'_>) -> Result<(), Error> {
         std::fs::read_to_string(&file).map_err(|e| format!("read {}: {e}", file.display()))?;
     let _ = std::fs::remove_file(&file);
     let regions = parse(&text)?;
+    if let (true, Some(n)) = (request.floats, request.cycle) {
+        return print_floats(request, &regions, n);
+    }
     let (main, other) = match request.cycle {
         Some(n) => (
             in_rounds(&regions, n, request.region)?,
@@ -259,6 +266,47 @@ fn print_profile(
         0,
         request.top,
     );
+    Ok(())
+}
+
+/// Per region of a round of `n`: instructions and those inside the
+/// floating-point routines, per round (markers' overhead subtracted from the
+/// former).
+fn print_floats(request: &Request<'_>, regions: &[Region], n: usize) -> Result<(), Error> {
+    let bytes =
+        std::fs::read(request.elf).map_err(|e| format!("read {}: {e}", request.elf.display()))?;
+    let file = object::File::parse(&*bytes)?;
+    let routines: Vec<(u64, u64)> = file
+        .symbols()
+        .filter(|s| s.kind() == SymbolKind::Text && s.name().is_ok_and(elf::is_float_routine))
+        .map(|s| (s.address() & !1, (s.address() & !1) + s.size()))
+        .collect();
+    let overhead = regions.first().map_or(0, |r| r.total);
+    println!(
+        "Software floating point per round of {n} regions on {} ({}):",
+        request.machine,
+        request.elf.display()
+    );
+    println!(
+        "{:>7} {:>14} {:>12} {:>8}",
+        "region", "instructions", "in floats", "share"
+    );
+    for k in 0..n {
+        let sum = in_rounds(regions, n, &k.to_string())?;
+        let rounds = sum.rounds.max(1);
+        let total = (sum.total - overhead * sum.rounds) / rounds;
+        let floats: i64 = sum
+            .counts
+            .iter()
+            .filter(|(&a, _)| routines.iter().any(|&(lo, hi)| (lo..hi).contains(&a)))
+            .map(|(_, &c)| c)
+            .sum::<i64>()
+            / rounds;
+        println!(
+            "{k:>7} {total:>14} {floats:>12} {:>7.2}%",
+            100.0 * floats as f64 / total.max(1) as f64
+        );
+    }
     Ok(())
 }
 
