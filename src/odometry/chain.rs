@@ -456,7 +456,11 @@ impl KeyframeOdometry {
         let new_keyframe = against != Against::Keyframe
             || estimate.overlap < self.settings.min_overlap
             || moved.heading.distance(Angle::ZERO) > self.settings.max_turn
-            || !(moved.distance_squared() <= limit * limit);
+            // A non-finite distance counts as moved too far.
+            || !matches!(
+                moved.distance_squared().partial_cmp(&(limit * limit)),
+                Some(core::cmp::Ordering::Less | core::cmp::Ordering::Equal)
+            );
         Some(self.add(placed, source, Some(against), new_keyframe))
     }
 

@@ -71,6 +71,16 @@ pub struct LogLine {
     pub chain: Option<ChainLine>,
 }
 
+/// The chain's best flagged estimate of a scan against its keyframe: the
+/// stored scan, the estimates, the prior they were made with and the
+/// odometry from the stored scan.
+type Guess = (
+    Against,
+    Vec<scans::PairEstimate>,
+    Option<Prior>,
+    Option<Pose>,
+);
+
 /// A pair's estimate, or why there is none.
 type PairResult = Result<Vec<scans::PairEstimate>, String>;
 
@@ -237,12 +247,7 @@ impl Run<'_> {
             return (result, None);
         };
         let mut line = result;
-        let mut guess: Option<(
-            Against,
-            Vec<scans::PairEstimate>,
-            Option<Prior>,
-            Option<Pose>,
-        )> = None;
+        let mut guess: Option<Guess> = None;
         let mut placed = None;
         'attempts: for (against, stored) in chain.attempts(&job.b) {
             let odom = stored.1.odom.zip(job.b.1.odom).map(|(p, q)| p.between(&q));
