@@ -2,7 +2,7 @@
 //! that never guesses a step it can bridge, with an honest heading
 //! uncertainty, and the heading correction a loop closure brings.
 //!
-//! * [`KeyframeOdometry`] ([`chain`](self::chain) module doc): each scan is
+//! * [`KeyframeOdometry`] ([`chain`]): each scan is
 //!   placed by a confident estimate against a stored scan (the keyframe,
 //!   the last placed scan, the previous keyframe); a scan that none places
 //!   is left out of the chain, its pose predicted, and only after
@@ -16,7 +16,7 @@
 //!
 //! Poses ([`RobotPose`]) are the robot's, in the frame of the first scan:
 //! metres, x forward, y left, heading counter-clockwise (a binary
-//! [`Angle`]). A step is the robot's [`Motion`](crate::Motion) from one
+//! [`Angle`](crate::Angle)). A step is the robot's [`Motion`](crate::Motion) from one
 //! scan to another (the scan-pair files' convention;
 //! [`Raster::motion`](crate::Raster::motion)), and a prior is on the
 //! estimator's α = −dθ (DESIGN.md §2). Heading σ are in degrees (`f32`).
@@ -27,7 +27,7 @@
 //! Q16 sine table (error below 2·10⁻⁵) for rotations: a few dozen float
 //! operations a scan, no trigonometric function. No allocation, no panic.
 
-mod chain;
+pub mod chain;
 mod correction;
 mod pose;
 
