@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{log_path, scratch_file, shared_data, stderr, stdout, tool};
+use common::{json_lines, log_path, scratch_file, shared_data, stderr, stdout, tool};
 
 /// The CSV trajectory's rows: `theta` and `odom_theta` (radians) a row.
 fn headings(csv: &str) -> Vec<(f64, Option<f64>)> {
@@ -66,6 +66,18 @@ fn summary_without_reference_poses_reports_the_chain_and_its_odometry() {
         assert!(err.contains("no reference poses to score against"), "{err}");
         assert!(!err.contains("failed and are not counted"), "{err}");
         assert!(!err.contains("| subset |"), "{err}");
+        // The flags by kind, as the JSON lines give them.
+        let mut statuses = std::collections::BTreeMap::new();
+        for line in json_lines(&o) {
+            *statuses
+                .entry(line["status"].as_str().unwrap().to_string())
+                .or_insert(0) += 1;
+        }
+        let by_status: Vec<String> = statuses.iter().map(|(s, n)| format!("{s} {n}")).collect();
+        assert!(
+            err.contains(&format!("pairs by status: {}\n", by_status.join(", "))),
+            "{err}"
+        );
         let rows = headings(&std::fs::read_to_string(&csv).unwrap());
         assert_eq!(rows.len(), 12);
         assert!(

@@ -111,6 +111,7 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
         pairs: 0,
         failed: 0,
         summary: Summary::default(),
+        statuses: Default::default(),
         // `--summary` on consecutive pairs also scores the chain (APE, RPE).
         trajectory: (args.trajectory.is_some() || args.plot.is_some() || (args.summary && chains))
             .then(Trajectory::default),
@@ -158,6 +159,12 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
              {} pairs, {} failed record(s) or pair(s)",
             run.pairs, run.failed
         );
+        let statuses: Vec<String> = run
+            .statuses
+            .iter()
+            .map(|(status, n)| format!("{status} {n}"))
+            .collect();
+        eprintln!("pairs by status: {}", statuses.join(", "));
         if let Some(report) = run.trajectory.as_ref().and_then(chain_report::report) {
             eprintln!("\n{}", report);
         }

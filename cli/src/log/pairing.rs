@@ -125,6 +125,9 @@ pub(super) struct Run<'a> {
     pub(super) pairs: usize,
     pub(super) failed: usize,
     pub(super) summary: Summary,
+    /// The pairs' statuses (the output line's `status`), counted for
+    /// `--summary` on a recording without reference poses.
+    pub(super) statuses: std::collections::BTreeMap<&'static str, usize>,
     pub(super) trajectory: Option<Trajectory>,
     /// The chain of `--prior motion` and `--pairs keyframes`.
     pub(super) chain: Option<Chain>,
@@ -342,7 +345,11 @@ impl Run<'_> {
         let index = self.pairs;
         self.pairs += 1;
         let line = match &result {
-            Ok(estimates) => OutputLine::of(index, &estimates[0]),
+            Ok(estimates) => {
+                let line = OutputLine::of(index, &estimates[0]);
+                *self.statuses.entry(line.status).or_default() += 1;
+                line
+            }
             Err(message) => {
                 let message = format!("{} and {}: {message}", s1.name, s2.name);
                 self.report(&RecordError::new("pair", message.clone()));
