@@ -256,7 +256,7 @@ impl Chain {
         let taken = match (step.against, &deltas) {
             (Some(a), Some((o, (d, _)))) if o.against == a => self
                 .stored(a)
-                .map(|s| (s.pose.compose(d), s.scan.0, o.prior)),
+                .map(|s| (s.pose.compose(d), Some(s.scan.0), o.prior)),
             _ => None,
         };
         let (pose, from_scan, prior) = taken.unwrap_or_else(|| {
@@ -267,9 +267,8 @@ impl Chain {
                 y: f64::from(r.y),
                 theta: f64::from(r.heading.to_degrees()).to_radians(),
             };
-            (last.compose(&delta), usize::MAX, None)
+            (last.compose(&delta), None, None)
         });
-        let from_scan = (from_scan != usize::MAX).then_some(from_scan);
         self.record(scan, step, pose, from_scan, prior)
     }
 

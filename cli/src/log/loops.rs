@@ -151,7 +151,8 @@ pub fn close(
     let signatures = workers.map(nodes, |engine, _, node| {
         signature(engine.as_mut(), &node.scan)
     });
-    let queries = candidates(nodes, &signatures, workers, settings);
+    let path = path_lengths(nodes);
+    let queries = candidates(nodes, &path, &signatures, workers, settings);
     let estimated = workers.map(&queries, |engine, _, &(i, j)| {
         let pair = PairRecord {
             scan1: nodes[i].scan.1.record.clone(),
@@ -184,12 +185,7 @@ pub fn close(
         let sigma_deg = ((nodes[j].variance - nodes[i].variance).abs()
             + CLOSURE_SIGMA_DEG * CLOSURE_SIGMA_DEG)
             .sqrt();
-        let path: f64 = (i + 1..=j)
-            .map(|k| {
-                let d = nodes[k - 1].pose.between(&nodes[k].pose);
-                d.x.hypot(d.y)
-            })
-            .sum();
+        let path = path[j] - path[i];
         closures.push(Closure {
             from: i,
             to: j,
@@ -218,19 +214,25 @@ fn signature(engine: &mut dyn Engine, scan: &Kept) -> Vec<u16> {
     engine.place_signature(View::First)
 }
 
-/// The pairs to estimate: for each query, the most alike candidates within
-/// the gate.
-fn candidates(
-    nodes: &[Node],
-    signatures: &[Vec<u16>],
-    workers: &mut Workers<Box<dyn Engine>>,
-    settings: &LoopSettings,
-) -> Vec<(usize, usize)> {
+/// The chain's path length from the first node to each node, metres.
+fn path_lengths(nodes: &[Node]) -> Vec<f64> {
     let mut path = vec![0.0; nodes.len()];
     for k in 1..nodes.len() {
         let step = nodes[k - 1].pose.between(&nodes[k].pose);
         path[k] = path[k - 1] + step.x.hypot(step.y);
     }
+    path
+}
+
+/// The pairs to estimate: for each query, the most alike candidates within
+/// the gate.
+fn candidates(
+    nodes: &[Node],
+    path: &[f64],
+    signatures: &[Vec<u16>],
+    workers: &mut Workers<Box<dyn Engine>>,
+    settings: &LoopSettings,
+) -> Vec<(usize, usize)> {
     let queries: Vec<usize> = (0..nodes.len()).step_by(settings.stride.max(1)).collect();
     let ranked = workers.map(&queries, |engine, _, &j| {
         let mut near: Vec<(usize, f64)> = nodes[..j]
