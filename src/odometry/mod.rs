@@ -30,10 +30,12 @@
 pub mod chain;
 mod correction;
 mod pose;
+pub mod settings;
 
-pub use chain::{
-    prior_sigma_for_interval, Against, KeyframeOdometry, KeyframeSettings, Step, StepSource,
-    DENSE_INTERVAL_S, MAX_TURN_RATE_DEG_S, TURN_KEPT_DIVISOR,
-};
+pub use chain::{Against, KeyframeOdometry, Step, StepSource};
 pub use correction::{HeadingCorrection, MAX_CORRECTED_KEYFRAMES};
 pub use pose::RobotPose;
+pub use settings::{
+    prior_sigma_for_interval, KeyframeSettings, DENSE_INTERVAL_S, MAX_TURN_RATE_DEG_S,
+    TURN_KEPT_DIVISOR,
+};
