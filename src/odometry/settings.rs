@@ -4,6 +4,8 @@
 
 use crate::angle::Angle;
 use crate::Score;
+#[cfg(doc)]
+use crate::estimate::Estimate;
 
 /// The prediction repeats the last step's translation and this fraction
 /// (1/2) of its turn: a robot's turn rate falls back towards zero. On the
