@@ -313,7 +313,10 @@ impl KeyframeOdometry {
     /// Offers an `estimate` of the next scan against `against` that gave
     /// the robot's `motion` from that scan (`by_prior`: made with
     /// [`prior`](Self::prior)). A confident estimate with a finite motion
-    /// places the scan: its step is returned. Otherwise `None`: try the
+    /// places the scan: its step is returned. A bridge, or an answer made
+    /// with the prior, must also lie within 3σ of the prediction; an answer
+    /// made with the prior places nothing unless
+    /// [`KeyframeSettings::takes_prior_answers`]. Otherwise `None`: try the
     /// next of [`attempts`](Self::attempts), then
     /// [`leave_unplaced`](Self::leave_unplaced). Before [`start`](Self::start)
     /// the scan starts the chain.
@@ -327,7 +330,10 @@ impl KeyframeOdometry {
         if !self.started {
             return Some(self.start());
         }
-        if estimate.status != Status::Confident || !finite(motion) {
+        if estimate.status != Status::Confident
+            || !finite(motion)
+            || (by_prior && !self.settings.takes_prior_answers)
+        {
             return None;
         }
         let (source, sigma) = if by_prior {
@@ -343,8 +349,11 @@ impl KeyframeOdometry {
         // A bridge (over unplaced scans, or from a stored scan other than the
         // keyframe) spans more than one step: it must also agree with the
         // prediction, as a confident answer over a long gap is more often
-        // wrong (the shared seattle log: a 5-scan bridge 145° off).
-        let bridge = self.unplaced > 0 || against != Against::Keyframe;
+        // wrong (the shared seattle log: a 5-scan bridge 145° off). So must
+        // an answer made with the prior: the prior weighs the candidates,
+        // it does not bound them (the dense sim/orebro stream: one 17° from
+        // a 5° prior, and 17° off).
+        let bridge = self.unplaced > 0 || against != Against::Keyframe || by_prior;
         if bridge && self.velocity.is_some() && !self.within_gate(placed.pose.heading) {
             return None;
         }
@@ -367,7 +376,8 @@ impl KeyframeOdometry {
     /// carries the hypothesis on at a confident step's σ). `guess`: the
     /// caller's best flagged estimate against a stored scan (made with the
     /// prior) and its motion, taken as the hypothesis when its rotation lies
-    /// within 3σ of the prediction; else the prediction is. The scan is
+    /// within 3σ of the prediction and the settings take such answers
+    /// ([`KeyframeSettings::takes_prior_answers`]); else the prediction is. The scan is
     /// left unplaced at the hypothesis, or carried there after
     /// [`KeyframeSettings::max_unplaced`] unplaced scans.
     pub fn leave_unplaced(
@@ -398,7 +408,7 @@ impl KeyframeOdometry {
                 };
                 let variance = base + prior_sigma * prior_sigma;
                 let guessed = guess
-                    .filter(|(_, _, m)| finite(m))
+                    .filter(|(_, _, m)| finite(m) && self.settings.takes_prior_answers)
                     .and_then(|(against, _, m)| {
                         let pose = self.stored(against).pose.compose(&RobotPose::of_motion(m));
                         self.within_gate(pose.heading).then_some((against, pose))
@@ -580,6 +590,36 @@ mod tests {
         );
         assert!(!fresh.wants_prior(Against::Keyframe, &e0));
         assert!(fresh.place(Against::Keyframe, &e, &m, false).is_some());
+    }
+
+    #[test]
+    fn a_dense_stream_takes_no_answer_the_prior_made() {
+        let dense = KeyframeSettings::default().consecutive().for_interval(0.1);
+        let mut chain = KeyframeOdometry::new(dense);
+        chain.start();
+        let (e, m) = step(4.0, Status::Confident, 0.9);
+        chain.place(Against::Keyframe, &e, &m, false).unwrap();
+        // Made confident by the prior, 6° from the prediction (2°, gate
+        // 15°): a sparse log would take it, a dense stream does not.
+        let (p, pm) = step(8.0, Status::Confident, 0.5);
+        let mut sparse = chain;
+        *sparse.settings_mut() = KeyframeSettings::default().consecutive();
+        assert_eq!(
+            sparse
+                .place(Against::Keyframe, &p, &pm, true)
+                .unwrap()
+                .source,
+            StepSource::Prior
+        );
+        assert_eq!(chain.place(Against::Keyframe, &p, &pm, true), None);
+        // Nor is it the unplaced scan's hypothesis: the prediction is.
+        let s = chain.leave_unplaced(None, Some((Against::Keyframe, &p, &pm)));
+        assert_eq!((s.source, s.against), (StepSource::Unplaced, None));
+        assert!((heading(&s) - 6.0).abs() < 0.01, "{}", heading(&s));
+        // Even a sparse log takes a prior-made answer only within 3σ of the
+        // prediction: 100° from it is not.
+        let (far, farm) = step(100.0, Status::Confident, 0.5);
+        assert_eq!(sparse.place(Against::Keyframe, &far, &farm, true), None);
     }
 
     #[test]

@@ -39,6 +39,9 @@ pub struct Chain {
     keyframe: Option<Stored>,
     last_placed: Option<Stored>,
     previous_keyframe: Option<Stored>,
+    /// The last scan, when the chain left it unplaced: the next scan's
+    /// estimate against it carries the hypothesis on.
+    unplaced_scan: Option<Kept>,
     /// Every placed scan, in order: the pose graph's nodes (`--loops`).
     pub nodes: Vec<Node>,
 }
@@ -115,6 +118,7 @@ impl Chain {
             keyframe: None,
             last_placed: None,
             previous_keyframe: None,
+            unplaced_scan: None,
             nodes: Vec::new(),
         }
     }
@@ -129,6 +133,7 @@ impl Chain {
         self.keyframe = Some(stored.clone());
         self.last_placed = Some(stored);
         self.previous_keyframe = None;
+        self.unplaced_scan = None;
         self.nodes = vec![Node {
             scan: first.clone(),
             pose: Pose::ZERO,
@@ -140,6 +145,11 @@ impl Chain {
     /// The chain has its first scan.
     pub fn started(&self) -> bool {
         self.keyframe.is_some()
+    }
+
+    /// The scan just before, when the chain left it unplaced.
+    pub fn unplaced_scan(&self) -> Option<&Kept> {
+        self.unplaced_scan.as_ref()
     }
 
     /// The current keyframe's scan.
@@ -281,6 +291,7 @@ impl Chain {
         from_scan: Option<usize>,
         prior: Option<Prior>,
     ) -> (ChainLine, Pose) {
+        self.unplaced_scan = (!step.source.is_placed()).then(|| scan.clone());
         if step.source.is_placed() {
             let stored = Stored {
                 scan: scan.clone(),

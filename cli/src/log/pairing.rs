@@ -252,7 +252,14 @@ impl Run<'_> {
         let mut line = result;
         let mut guess: Option<Guess> = None;
         let mut placed = None;
-        'attempts: for (against, stored) in chain.attempts(&job.b) {
+        // First every stored scan's own answer that needs no prior (the
+        // pair's own estimate where that is its first scan); then, in the
+        // same order, the answers made again with the prior. A confident
+        // answer against the last placed scan is worth more than the
+        // keyframe's answer forced by the prior (on a dense stream such
+        // forced answers were the keyframes' drift).
+        let mut wanting = Vec::new();
+        for (against, stored) in chain.attempts(&job.b) {
             let odom = stored.1.odom.zip(job.b.1.odom).map(|(p, q)| p.between(&q));
             let own = stored.0 == job.a.0;
             let first = if own {
@@ -264,8 +271,35 @@ impl Run<'_> {
                 .as_ref()
                 .ok()
                 .and_then(|e| chain.prior_for(against, &e[0]));
-            // The answer made with the prior first, when the chain wants
-            // one: the original still places the scan if it is confident.
+            if prior.is_none() {
+                if let Ok(estimates) = &first {
+                    let offer = Offer {
+                        against,
+                        estimate: &estimates[0],
+                        prior: None,
+                    };
+                    if let Some(added) = chain.offer(&job.b, &offer, odom) {
+                        if own {
+                            line = first.clone();
+                        }
+                        placed = Some(added);
+                        break;
+                    }
+                    if against == Against::Keyframe && guess.is_none() {
+                        guess = Some((against, estimates.clone(), None, odom));
+                    }
+                }
+                continue;
+            }
+            wanting.push((against, stored, own, first, prior, odom));
+        }
+        'wanting: for (against, stored, own, first, prior, odom) in wanting {
+            if placed.is_some() {
+                break;
+            }
+            // The answer made with the prior first: the original still
+            // places the scan if it is confident, unless the prior's own
+            // answer contradicts it.
             let mut tries = Vec::new();
             let mut contradicted = false;
             if let Some(prior) = prior {
@@ -294,9 +328,9 @@ impl Run<'_> {
                         line = result.clone();
                     }
                     placed = Some(added);
-                    break 'attempts;
+                    break 'wanting;
                 }
-                if against == Against::Keyframe && guess.is_none() {
+                if against == Against::Keyframe && (guess.is_none() || prior.is_some()) {
                     guess = Some((against, estimates.clone(), prior, odom));
                 }
             }
@@ -312,13 +346,24 @@ impl Run<'_> {
                     *odom,
                 )
             });
-            // The pair's own estimate, when its first scan is the one just
-            // before (consecutive pairs).
-            let previous = line
-                .as_ref()
-                .ok()
-                .filter(|_| job.b.0 == job.a.0 + self.args.every)
-                .map(|e| (&e[0], job.odom));
+            // The scan's estimate against the one just before, when the
+            // chain left that one unplaced: the pair's own (consecutive
+            // pairs), else made here (keyframe pairs).
+            let just_before = chain.unplaced_scan().filter(|s| s.0 != job.a.0).cloned();
+            let previous = match &just_before {
+                Some(before) => {
+                    let odom = before.1.odom.zip(job.b.1.odom).map(|(p, q)| p.between(&q));
+                    self.estimate_one(before, &job.b, None)
+                        .ok()
+                        .map(|e| (e, odom))
+                }
+                None => line
+                    .as_ref()
+                    .ok()
+                    .filter(|_| job.b.0 == job.a.0 + self.args.every)
+                    .map(|e| (e.clone(), job.odom)),
+            };
+            let previous = previous.as_ref().map(|(e, odom)| (&e[0], *odom));
             chain.unplaced(&job.b, previous, offer.as_ref().map(|(o, odom)| (o, *odom)))
         });
         self.chain = Some(chain);
