@@ -39,7 +39,7 @@ fn the_laser_scan_matcher_demo_bag_reads_whole() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert_eq!(stdout(&o).lines().count(), 359);
     assert!(
-        stderr(&o).contains(": 360 scans, 359 pairs (0 failed record(s) or pair(s))"),
+        stderr(&o).contains(": 360 scans, 359 keyframe pairs (0 failed record(s) or pair(s))"),
         "{}",
         stderr(&o)
     );

@@ -11,6 +11,12 @@ use crate::jobs::JobsArgs;
 /// Which scan pairs are estimated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum PairsArg {
+    /// Keyframes on a dense stream (its first two scans at most 0.25 s
+    /// apart by their times), else consecutive pairs (also when the scans
+    /// carry no times, or with a `--prior` other than `motion`). On the
+    /// shared dense streams keyframes drifted less (`docs/drift.md`); on
+    /// logs kept every metre they did not. `log` says which it took.
+    Auto,
     /// Each scan against the previous one (with `--every N`: scans 0, N, 2N, …).
     Consecutive,
     /// Each later scan against scan `--reference`.
@@ -19,9 +25,29 @@ pub enum PairsArg {
     /// (loop-closure candidates).
     Window,
     /// Keyframe odometry: each scan against the current keyframe, a new
-    /// keyframe when the overlap falls below 0.6 or an estimate is flagged;
-    /// always with the motion prior.
+    /// keyframe when the overlap falls below 0.6, the robot turned 30° or
+    /// moved 1 m since it, or a scan was placed against another stored
+    /// scan; always with the motion prior.
     Keyframes,
+}
+
+impl PairsArg {
+    /// The pairs make a stream the chain follows (consecutive, keyframes,
+    /// or either).
+    pub fn chains(self) -> bool {
+        matches!(self, Self::Auto | Self::Consecutive | Self::Keyframes)
+    }
+
+    /// Its name, for the summary's heading and the run's last line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Auto => "auto",
+            Self::Consecutive => "consecutive",
+            Self::Reference => "reference",
+            Self::Window => "window",
+            Self::Keyframes => "keyframe",
+        }
+    }
 }
 
 /// Where the rotation prior comes from.
@@ -58,7 +84,7 @@ pub struct LogArgs {
     #[arg(long, value_name = "TOPIC")]
     pub odom_topic: Option<String>,
     /// Which pairs.
-    #[arg(long, value_enum, default_value_t = PairsArg::Consecutive)]
+    #[arg(long, value_enum, default_value_t = PairsArg::Auto)]
     pub pairs: PairsArg,
     /// Use every N-th scan only (scans 0, N, 2N, …).
     #[arg(long, value_name = "N", default_value_t = 1)]
@@ -157,7 +183,7 @@ impl LogArgs {
         match (self.prior, self.pairs()) {
             (_, PairsArg::Keyframes) => PriorArg::Motion,
             (Some(p), _) => p,
-            (None, PairsArg::Consecutive) => PriorArg::Motion,
+            (None, PairsArg::Consecutive | PairsArg::Auto) => PriorArg::Motion,
             (None, _) => PriorArg::None,
         }
     }
@@ -176,16 +202,6 @@ impl LogArgs {
     /// The run chains the scans (motion prior or keyframes).
     pub fn chained(&self) -> bool {
         self.prior() == PriorArg::Motion
-    }
-
-    /// The name of `--pairs`, for the summary's heading.
-    pub fn pairs_name(&self) -> &'static str {
-        match self.pairs() {
-            PairsArg::Consecutive => "consecutive",
-            PairsArg::Reference => "reference",
-            PairsArg::Window => "window",
-            PairsArg::Keyframes => "keyframe",
-        }
     }
 
     /// What [`open_recording`](hough_heading_recordings::open_recording)

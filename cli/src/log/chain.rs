@@ -123,6 +123,17 @@ impl Chain {
         }
     }
 
+    /// Makes every placed scan a keyframe (consecutive pairs), or the
+    /// library's rule decide (keyframes).
+    pub fn keep_every_scan(&mut self, every_scan: bool) {
+        let settings = self.odometry.settings_mut();
+        settings.min_overlap = if every_scan {
+            KeyframeSettings::default().consecutive().min_overlap
+        } else {
+            KeyframeSettings::default().min_overlap
+        };
+    }
+
     /// The first scan.
     pub fn start(&mut self, first: &Kept) {
         self.odometry.start();

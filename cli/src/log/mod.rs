@@ -51,9 +51,7 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
             "--prior-sigma {sigma}: must be in (0, 90] degrees"
         )));
     }
-    if args.prior() == PriorArg::Motion
-        && !matches!(args.pairs(), PairsArg::Consecutive | PairsArg::Keyframes)
-    {
+    if args.prior() == PriorArg::Motion && !args.pairs().chains() {
         return Err(Fatal::usage(
             "--prior motion chains the scans: use it with --pairs consecutive or keyframes",
         ));
@@ -78,7 +76,7 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
         }
         None => None,
     };
-    let chains = matches!(args.pairs(), PairsArg::Consecutive | PairsArg::Keyframes);
+    let chains = args.pairs().chains();
     if (args.trajectory.is_some() || args.plot.is_some()) && !chains {
         return Err(Fatal::usage(
             "--trajectory and --plot chain the scans: use them with --pairs consecutive or keyframes",
@@ -118,6 +116,12 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
         chain: args
             .chained()
             .then(|| Chain::new(args.prior_sigma, args.pairs() != PairsArg::Keyframes)),
+        // `auto` is settled at the second scan (`pairing::stream`); it is
+        // consecutive pairs without the motion prior.
+        way: match args.pairs() {
+            PairsArg::Auto if !args.chained() => PairsArg::Consecutive,
+            pairs => pairs,
+        },
         stdout_closed: false,
         bar: bar.clone(),
     };
@@ -142,8 +146,9 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
     }
     if !args.quiet {
         eprintln!(
-            "hough-heading: {file}: {scans} scans, {} pairs ({} failed record(s) or pair(s)) in {:.2} s",
+            "hough-heading: {file}: {scans} scans, {} {} pairs ({} failed record(s) or pair(s)) in {:.2} s",
             run.pairs,
+            run.way.name(),
             run.failed,
             start.elapsed().as_secs_f64()
         );
@@ -171,7 +176,7 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
     } else if args.summary {
         eprintln!(
             "\n{file}: {} pairs scored against the log's poses ({}², N_θ = {})\n\n{}",
-            args.pairs_name(),
+            run.way.name(),
             args.grid.size,
             args.estimator.n_theta,
             run.summary.table()

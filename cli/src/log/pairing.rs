@@ -6,7 +6,7 @@ use std::collections::VecDeque;
 use std::io::{self, BufWriter, Write};
 use std::sync::Arc;
 
-use hough_heading::odometry::Against;
+use hough_heading::odometry::{Against, DENSE_INTERVAL_S};
 use hough_heading::{Angle, Mode, Prior};
 use hough_heading_recordings::engine::Engine;
 use hough_heading_recordings::line::OutputLine;
@@ -131,6 +131,9 @@ pub(super) struct Run<'a> {
     pub(super) trajectory: Option<Trajectory>,
     /// The chain of `--prior motion` and `--pairs keyframes`.
     pub(super) chain: Option<Chain>,
+    /// The pairs the run makes: `--pairs`, `auto` until the second scan
+    /// settles it ([`settle`]).
+    pub(super) way: PairsArg,
     pub(super) stdout_closed: bool,
     pub(super) bar: ProgressBar,
 }
@@ -295,7 +298,12 @@ impl Run<'_> {
         }
         'wanting: for (against, stored, own, first, prior, odom) in wanting {
             if placed.is_some() {
-                break;
+                // The pair's line still shows its answer made with the
+                // prior, as when the chain takes it.
+                if let (true, Some(prior)) = (own, prior) {
+                    line = self.estimate_one(&stored, &job.b, Some(prior));
+                }
+                continue;
             }
             // The answer made with the prior first: the original still
             // places the scan if it is confident, unless the prior's own
@@ -494,8 +502,19 @@ fn stream_pairs(
         }
         let current: Kept = (index, Arc::new(scan));
         run.bar.set_message(format!("scan {index}"));
-        match args.pairs() {
-            PairsArg::Consecutive => {
+        if run.way == PairsArg::Auto {
+            if let Some(first) = kept
+                .back()
+                .or(run.chain.as_ref().and_then(|c| c.keyframe()))
+            {
+                run.way = settle(first, &current);
+                if let Some(chain) = &mut run.chain {
+                    chain.keep_every_scan(run.way == PairsArg::Consecutive);
+                }
+            }
+        }
+        match run.way {
+            PairsArg::Auto | PairsArg::Consecutive => {
                 if let Some(previous) = kept.pop_back() {
                     run.pair(&previous, &current)?;
                 } else {
@@ -537,11 +556,21 @@ fn stream_pairs(
             }
         }
     }
-    if args.pairs() == PairsArg::Reference && reference.is_none() && scans > 0 {
+    if run.way == PairsArg::Reference && reference.is_none() && scans > 0 {
         return Err(Fatal::usage(format!(
             "--reference {}: the recording has only {scans} scans",
             args.reference
         )));
     }
     Ok(scans)
+}
+
+/// `--pairs auto` at the second scan: keyframes when the first two scans
+/// are at most [`DENSE_INTERVAL_S`] apart by their times, else consecutive
+/// pairs.
+fn settle(first: &Kept, second: &Kept) -> PairsArg {
+    match first.1.time.zip(second.1.time) {
+        Some((a, b)) if b > a && b - a <= f64::from(DENSE_INTERVAL_S) => PairsArg::Keyframes,
+        _ => PairsArg::Consecutive,
+    }
 }
