@@ -111,10 +111,15 @@ pub struct LogArgs {
     pub prior_sigma: Option<f64>,
     /// Loop closures and a pose graph at the end of a chained run: the
     /// corrected poses go to `--trajectory`, `--plot` and `--summary` (the
-    /// JSON lines keep the chain's). Off by default: on the shared logs it
-    /// does not yet pay (`docs/drift.md`).
-    #[arg(long)]
+    /// JSON lines keep the chain's). By default on for keyframe runs (dense
+    /// streams: on the shared ones no wrong closure got in, and the drift
+    /// fell) and off for consecutive pairs (logs kept every metre: wrong
+    /// closures got in); `docs/drift.md`.
+    #[arg(long, conflicts_with = "no_loops")]
     pub loops: bool,
+    /// No loop closures, whatever the stream.
+    #[arg(long)]
+    pub no_loops: bool,
     /// Writes the pose graph as `.g2o` (VERTEX_SE2, EDGE_SE2) for g2o or
     /// GTSAM users; implies `--loops`.
     #[arg(long, value_name = "FILE")]
@@ -194,9 +199,11 @@ impl LogArgs {
         self.prior_sigma.unwrap_or(default)
     }
 
-    /// The run closes loops: `--loops` or `--g2o` on a chained run.
-    pub fn closes_loops(&self) -> bool {
-        self.chained() && (self.loops || self.g2o.is_some())
+    /// The run closes loops: `--loops` or `--g2o` on a chained run, or a
+    /// keyframe run (`way`: the pairs it made) without `--no-loops`.
+    pub fn closes_loops(&self, way: PairsArg) -> bool {
+        self.chained()
+            && (self.loops || self.g2o.is_some() || (way == PairsArg::Keyframes && !self.no_loops))
     }
 
     /// The run chains the scans (motion prior or keyframes).

@@ -153,7 +153,7 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
             start.elapsed().as_secs_f64()
         );
     }
-    if args.closes_loops() {
+    if args.closes_loops(run.way) {
         close_loops(&mut run, &file)?;
     }
     if args.summary && run.summary.is_empty() {
@@ -252,8 +252,12 @@ fn close_loops(run: &mut Run<'_>, file: &str) -> Result<(), Fatal> {
         } else {
             String::new()
         };
+        let agreeing = accepted
+            .iter()
+            .filter(|c| c.disagreement_deg(&solved.poses) <= 1.0)
+            .count();
         eprintln!(
-            "hough-heading: {file}: loop closures: {} confident tried, {} accepted into the pose graph of {} placed scans{wrong_text}",
+            "hough-heading: {file}: loop closures: {} confident tried, {} accepted into the pose graph of {} placed scans, {agreeing} of them within 1° of the optimized trajectory{wrong_text}",
             solved.closures.len(),
             accepted.len(),
             nodes.len()
