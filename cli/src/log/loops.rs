@@ -398,7 +398,13 @@ pub fn write_g2o(path: &Path, nodes: &[Node], solved: &Solved) -> Result<(), Fat
         edge(k - 1, k, &step, heading, 0.05 + 0.05 * step.x.hypot(step.y));
     }
     for c in solved.closures.iter().filter(|c| c.accepted) {
-        edge(c.from, c.to, &c.delta, GRAPH_CLOSURE_SIGMA_DEG, CLOSURE_SIGMA_M);
+        edge(
+            c.from,
+            c.to,
+            &c.delta,
+            GRAPH_CLOSURE_SIGMA_DEG,
+            CLOSURE_SIGMA_M,
+        );
     }
     std::fs::write(path, out).map_err(|e| Fatal::io(format!("{}: {e}", path.display())))
 }
