@@ -3,22 +3,26 @@
 
 For each CARMEN log with truth poses (default: ../shared/data/logs/*.log.gz
 and ../shared/data/dense/sim/*.log.gz; the first pose of a FLASER line is
-the truth), runs `hough-heading log` in each way asked (default:
-consecutive pairs with the motion prior, `--keyframes`, and consecutive
-pairs with `--loops`) and prints one markdown row per stream and way:
+the truth), runs `hough-heading log` in each way asked (default: the tool's default,
+which takes keyframes and loop closures on a dense stream and consecutive
+pairs on a sparse one; consecutive pairs and keyframes without closures;
+each with `--loops`) and prints one markdown row per stream and way:
 
 - pairs within 2 deg / flagged / confident and > 5 deg off (the line's
   own estimate against the log's relative heading);
 - the chained heading against the log's: largest and final error, degrees
-  (with --loops: the corrected trajectory, `--trajectory x.csv`);
+  (where the run closed loops: the corrected trajectory, `--trajectory
+  x.csv`);
 - the share of scans whose true heading lies within 2 sigma of the chained
   one (`chain.heading_sigma_deg`);
 - the steps by source (estimate, prior, unplaced, carried);
-- with --loops: the closures tried, accepted, and accepted more than 5 deg
-  off the log's poses (the tool's stderr).
+- where the run closed loops: the closures tried, accepted, accepted and
+  more than 5 deg off the log's poses, and accepted and within 1 deg of the
+  optimized trajectory (the tool's stderr).
 
 Usage: python3 tools/drift_figures.py [--tool target/release/hough-heading]
-       [--ways default,keyframes,loops] [--out DIR] [LOG ...]
+       [--ways default,consecutive,keyframes,consecutive+loops,keyframes+loops]
+       [--out DIR] [LOG ...]
 """
 
 import argparse
@@ -34,7 +38,13 @@ import subprocess
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 SHARED = os.path.join(ROOT, "..", "shared", "data")
-WAYS = {"default": [], "keyframes": ["--keyframes"], "loops": ["--loops"]}
+WAYS = {
+    "default": [],
+    "consecutive": ["--pairs", "consecutive", "--no-loops"],
+    "keyframes": ["--keyframes", "--no-loops"],
+    "consecutive+loops": ["--pairs", "consecutive", "--loops"],
+    "keyframes+loops": ["--keyframes", "--loops"],
+}
 
 
 def wrap(d):
@@ -80,14 +90,17 @@ def score(lines, err, csv_path, way):
             e = wrap(c["theta_deg"] - truth[b])
             covered += abs(e) <= 2.0 * c.get("heading_sigma_deg", 0.0)
             drift_max, drift_end = max(drift_max, abs(e)), e
-    if way == "loops" and os.path.exists(csv_path):
+    closed = "loop closures:" in err
+    if closed and os.path.exists(csv_path):
         drift_max = drift_end = 0.0
         for row in csv.DictReader(open(csv_path)):
             if row.get("log_theta"):
                 e = wrap(math.degrees(float(row["theta"]) - float(row["log_theta"])))
                 drift_max, drift_end = max(drift_max, abs(e)), e
     closures = re.search(r"loop closures: (\d+) confident tried, (\d+) accepted", err)
+    agreeing = re.search(r"scans, (\d+) of them within 1", err)
     wrong_closures = re.search(r"poses: (\d+) of the accepted", err)
+    taken = re.search(r"scans, \d+ (\w+) pairs", err)
     return {
         "n": n,
         "within": 100.0 * within / max(n, 1),
@@ -97,16 +110,18 @@ def score(lines, err, csv_path, way):
         "end": drift_end,
         "cover": 100.0 * covered / max(n, 1),
         "sources": sources,
-        "closures": closures.groups() + (wrong_closures.group(1) if wrong_closures else None,)
+        "closures": closures.groups()
+        + (wrong_closures.group(1) if wrong_closures else None, agreeing.group(1) if agreeing else None)
         if closures
         else None,
+        "taken": taken.group(1) if taken else "?",
     }
 
 
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--tool", default=os.path.join(ROOT, "target", "release", "hough-heading"))
-    p.add_argument("--ways", default="default,keyframes,loops")
+    p.add_argument("--ways", default="default,consecutive,keyframes,consecutive+loops,keyframes+loops")
     p.add_argument("--out", default=os.path.join(ROOT, "target", "drift"))
     p.add_argument("logs", nargs="*")
     a = p.parse_args()
@@ -114,7 +129,8 @@ def main():
         glob.glob(os.path.join(SHARED, "dense", "sim", "*.log.gz")))
     os.makedirs(a.out, exist_ok=True)
     print("| stream | way | pairs | within 2° | flagged | conf. > 5° off | heading error max / end (°) "
-          "| truth within 2σ | steps: estimate / prior / unplaced / carried | closures tried / accepted / wrong |")
+          "| truth within 2σ | steps: estimate / prior / unplaced / carried "
+          "| closures tried / accepted / wrong / within 1° of the graph |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     for log in logs:
         for way in a.ways.split(","):
@@ -122,8 +138,9 @@ def main():
             s = score(lines, err, csv_path, way)
             src = s["sources"]
             c = s["closures"]
-            closures = f"{c[0]} / {c[1]} / {c[2] or 0}" if c else "–"
-            print(f"| {name} | {way} | {s['n']} | {s['within']:.1f} % | {s['flagged']:.1f} % | {s['wrong']} "
+            closures = f"{c[0]} / {c[1]} / {c[2] or 0} / {c[3] or 0}" if c else "–"
+            shown = f"default ({s['taken']}{', loops' if c else ''})" if way == "default" else way
+            print(f"| {name} | {shown} | {s['n']} | {s['within']:.1f} % | {s['flagged']:.1f} % | {s['wrong']} "
                   f"| {s['max']:.1f} / {s['end']:.1f} | {s['cover']:.1f} % "
                   f"| {src['estimate']} / {src['prior']} / {src['unplaced']} / {src['carried']} | {closures} |",
                   flush=True)

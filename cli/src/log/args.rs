@@ -124,6 +124,12 @@ pub struct LogArgs {
     /// GTSAM users; implies `--loops`.
     #[arg(long, value_name = "FILE")]
     pub g2o: Option<PathBuf>,
+    /// Writes every loop closure tried as CSV: its scans, its heading
+    /// change, the chain's and the optimized trajectory's between the same
+    /// scans, the differences before and after the graph (degrees), and
+    /// whether it was accepted; implies `--loops`.
+    #[arg(long, value_name = "FILE")]
+    pub closures: Option<PathBuf>,
     /// Shorthand for `--pairs keyframes`.
     #[arg(long, conflicts_with = "pairs")]
     pub keyframes: bool,
@@ -199,11 +205,15 @@ impl LogArgs {
         self.prior_sigma.unwrap_or(default)
     }
 
-    /// The run closes loops: `--loops` or `--g2o` on a chained run, or a
+    /// The run closes loops: `--loops`, `--g2o` or `--closures` on a
+    /// chained run, or a
     /// keyframe run (`way`: the pairs it made) without `--no-loops`.
     pub fn closes_loops(&self, way: PairsArg) -> bool {
         self.chained()
-            && (self.loops || self.g2o.is_some() || (way == PairsArg::Keyframes && !self.no_loops))
+            && (self.loops
+                || self.g2o.is_some()
+                || self.closures.is_some()
+                || (way == PairsArg::Keyframes && !self.no_loops))
     }
 
     /// The run chains the scans (motion prior or keyframes).

@@ -373,6 +373,36 @@ fn solve(initial: &[Pose], variances: &[f64], closures: &[Closure]) -> Result<Ve
         .collect())
 }
 
+/// Every closure tried as CSV (`--closures`): the scans of its ends (the
+/// recording's indices), its heading change, the chain's and the optimized
+/// trajectory's between the same scans, the closure's difference to each
+/// (degrees), accepted or not.
+///
+/// # Errors
+/// A [`Fatal`] error when the file cannot be written.
+pub fn write_closures(path: &Path, nodes: &[Node], solved: &Solved) -> Result<(), Fatal> {
+    let mut out = String::from(
+        "scan1,scan2,closure_dtheta_deg,chain_dtheta_deg,optimized_dtheta_deg,before_deg,after_deg,accepted\n",
+    );
+    for c in &solved.closures {
+        let chain = nodes[c.from].pose.between(&nodes[c.to].pose);
+        let optimized = solved.poses[c.from].between(&solved.poses[c.to]);
+        let _ = writeln!(
+            out,
+            "{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{}",
+            nodes[c.from].scan.0,
+            nodes[c.to].scan.0,
+            c.delta.theta.to_degrees(),
+            chain.theta.to_degrees(),
+            optimized.theta.to_degrees(),
+            c.residual_deg,
+            wrap_deg((c.delta.theta - optimized.theta).to_degrees()),
+            c.accepted
+        );
+    }
+    std::fs::write(path, out).map_err(|e| Fatal::io(format!("{}: {e}", path.display())))
+}
+
 /// The graph as `.g2o` (`VERTEX_SE2`, `EDGE_SE2` with the information
 /// matrix's upper triangle): the chain's steps and the accepted closures,
 /// the poses the solver gave.

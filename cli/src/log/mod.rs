@@ -263,8 +263,37 @@ fn close_loops(run: &mut Run<'_>, file: &str) -> Result<(), Fatal> {
             nodes.len()
         );
     }
+    if run.args.summary && !accepted.is_empty() {
+        let before: Vec<f64> = accepted.iter().map(|c| c.residual_deg.abs()).collect();
+        let after: Vec<f64> = accepted
+            .iter()
+            .map(|c| c.disagreement_deg(&solved.poses))
+            .collect();
+        eprintln!(
+            "hough-heading: {file}: accepted closures' heading difference to the trajectory, before / after the graph: median {} / {}°, 90th percentile {} / {}°, largest {} / {}°",
+            percentile(&before, 0.5),
+            percentile(&after, 0.5),
+            percentile(&before, 0.9),
+            percentile(&after, 0.9),
+            percentile(&before, 1.0),
+            percentile(&after, 1.0),
+        );
+    }
     if let Some(path) = &run.args.g2o {
         loops::write_g2o(path, nodes, &solved)?;
     }
+    if let Some(path) = &run.args.closures {
+        loops::write_closures(path, nodes, &solved)?;
+    }
     Ok(())
+}
+
+/// The `q`-quantile (0–1, nearest rank) of `values`, degrees to 0.01.
+fn percentile(values: &[f64], q: f64) -> String {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let k = ((sorted.len() as f64 - 1.0) * q).round() as usize;
+    sorted
+        .get(k)
+        .map_or_else(|| "–".to_string(), |v| format!("{v:.2}"))
 }
