@@ -111,6 +111,9 @@ const GRAPH_CLOSURE_SIGMA_DEG: f64 = 0.5;
 /// The translation σ of a closure's own estimate, metres (a revisit's
 /// translation is weaker than its heading).
 const CLOSURE_SIGMA_M: f64 = 0.5;
+/// The translation σ of a closure whose estimate did not observe its
+/// translation (a corridor): metres, so wide it does not bind.
+const UNOBSERVED_SIGMA_M: f64 = 1000.0;
 /// The window of the place descriptors, metres from the sensor.
 const PLACE_RADIUS_M: f32 = 10.0;
 
@@ -128,8 +131,13 @@ pub struct Closure {
     pub residual_deg: f64,
     /// The chain's relative heading σ between the two, degrees.
     pub sigma_deg: f64,
-    /// Its translation minus the chain's, metres.
+    /// Its translation minus the chain's, metres (0 when it holds the
+    /// heading only).
     pub offset_m: f64,
+    /// One standard deviation of its translation in the graph, metres:
+    /// [`CLOSURE_SIGMA_M`], or [`UNOBSERVED_SIGMA_M`] where the estimate
+    /// did not observe it.
+    pub translation_sigma_m: f64,
     /// How far the chain may have moved the later end: a metre, plus three
     /// relative σ (radians) of the path between them, metres.
     pub offset_gate_m: f64,
@@ -188,14 +196,16 @@ pub fn close(
         if e.estimate.status != hough_heading::Status::Confident {
             continue;
         }
-        let odom = nodes[i]
-            .scan
-            .1
-            .odom
-            .zip(nodes[j].scan.1.odom)
-            .map(|(p, q)| p.between(&q));
-        let (x, y) = hough_heading_recordings::trajectory::fused_delta(e, odom)
-            .map_or((0.0, 0.0), |(d, _)| (d.x, d.y));
+        // The estimate's own translation: the odometry between a revisit's
+        // two scans has drifted for the whole loop (on the shared dense
+        // streams, metres). Where the estimate cannot observe it (a
+        // corridor), or has none, the closure holds the heading only.
+        let observed = e
+            .estimate
+            .translation
+            .is_some_and(|t| t.unobservable.is_none())
+            && e.translation.is_some();
+        let (x, y) = e.translation.filter(|_| observed).unwrap_or((0.0, 0.0));
         let delta = Pose {
             x,
             y,
@@ -213,7 +223,16 @@ pub fn close(
             delta,
             residual_deg,
             sigma_deg,
-            offset_m: (delta.x - chain.x).hypot(delta.y - chain.y),
+            offset_m: if observed {
+                (delta.x - chain.x).hypot(delta.y - chain.y)
+            } else {
+                0.0
+            },
+            translation_sigma_m: if observed {
+                CLOSURE_SIGMA_M
+            } else {
+                UNOBSERVED_SIGMA_M
+            },
             offset_gate_m: 1.0 + 3.0 * sigma_deg.to_radians().min(1.0) * path,
             accepted: false,
         });
@@ -348,8 +367,8 @@ fn solve(initial: &[Pose], variances: &[f64], closures: &[Closure]) -> Result<Ve
             (X(c.from as u32), X(c.to as u32)),
             GaussianNoise::<3>::from_diag_sigmas(
                 GRAPH_CLOSURE_SIGMA_DEG.to_radians(),
-                CLOSURE_SIGMA_M,
-                CLOSURE_SIGMA_M
+                c.translation_sigma_m,
+                c.translation_sigma_m
             ),
             Huber::default()
         ]);
@@ -433,7 +452,7 @@ pub fn write_g2o(path: &Path, nodes: &[Node], solved: &Solved) -> Result<(), Fat
             c.to,
             &c.delta,
             GRAPH_CLOSURE_SIGMA_DEG,
-            CLOSURE_SIGMA_M,
+            c.translation_sigma_m,
         );
     }
     std::fs::write(path, out).map_err(|e| Fatal::io(format!("{}: {e}", path.display())))
@@ -461,6 +480,7 @@ mod tests {
             residual_deg,
             sigma_deg,
             offset_m: 0.0,
+            translation_sigma_m: CLOSURE_SIGMA_M,
             offset_gate_m: 1.0,
             accepted: false,
         }
