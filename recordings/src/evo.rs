@@ -262,7 +262,7 @@ fn paired(t: &Trajectory, track: Track) -> Vec<(Pose, Pose)> {
 pub fn report(t: &Trajectory) -> Option<String> {
     let estimates = pose_errors(&paired(t, TRACKS[0].1))?;
     let mut out = format!(
-        "chained consecutive estimates vs the log's poses, {} poses (evo_ape / evo_rpe \
+        "chained estimates vs the log's poses, {} poses (evo_ape / evo_rpe \
          definitions: translation part, no alignment, RPE over 1 frame):\n\n",
         estimates.ape.n
     );

@@ -59,13 +59,7 @@ fn draw(t: &Trajectory, path: &Path, title: &str) -> Result<(), Box<dyn std::err
     let root = BitMapBackend::new(path, (w, h)).into_drawing_area();
     root.fill(&WHITE)?;
     let mut chart = ChartBuilder::on(&root)
-        .caption(
-            format!(
-                "{title}: {} scans, chained consecutive estimates",
-                t.steps.len()
-            ),
-            (FONT, 24),
-        )
+        .caption(format!("{title} ({} scans)", t.steps.len()), (FONT, 24))
         .margin(15)
         .x_label_area_size(45)
         .y_label_area_size(60)

@@ -153,7 +153,8 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
             start.elapsed().as_secs_f64()
         );
     }
-    if args.closes_loops(run.way) {
+    let closed_loops = args.closes_loops(run.way);
+    if closed_loops {
         close_loops(&mut run, &file)?;
     }
     if args.summary && run.summary.is_empty() {
@@ -198,7 +199,9 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
                 .file
                 .file_name()
                 .map_or(file.clone(), |n| n.to_string_lossy().into_owned());
-            figure::plot(t, path, &name)?;
+            let loops = if closed_loops { ", loops closed" } else { "" };
+            let title = format!("{name}: {} pairs chained{loops}", run.way.name());
+            figure::plot(t, path, &title)?;
         }
     }
     Ok(run.failed)
