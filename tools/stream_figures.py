@@ -6,23 +6,27 @@ logs' corrected poses.
 For each CARMEN log given (default: ../shared/data/logs/*.log.gz) it writes
 the log as an LD06 and an RPLIDAR capture (tools/log_captures.py: 360
 points a turn, clockwise, 0 = no return), runs `hough-heading log` on the
-log and on both captures in three ways (`--prior none`: the pairs alone;
-the default: consecutive pairs with the motion prior; `--keyframes`), and
+log and on both captures in four ways (`--prior none`: the pairs alone;
+the default, which on these logs kept every metre is consecutive pairs
+with the motion prior; keyframes without and with loop closures), and
 prints one markdown table row per log, source and way:
 
 - within 2 deg, flagged, confident and > 5 deg off (count / confident),
   over the pairs (the truth of a pair is the difference of the log's
   corrected headings of its two scans; capture revolution i is log scan i);
-- the chained heading (the line's `chain.theta_deg`) against the log's:
-  the largest and the final difference, degrees.
+- the chained heading (the line's `chain.theta_deg`, or the corrected
+  trajectory, `--trajectory`, where the run closed loops) against the
+  log's: the largest and the final difference, degrees.
 
 Usage: python3 tools/stream_figures.py [--tool target/release/hough-heading]
        [--out DIR] [LOG ...]
 """
 
 import argparse
+import csv
 import glob
 import json
+import math
 import os
 import subprocess
 import sys
@@ -36,10 +40,19 @@ def wrap(d):
 
 
 def run(tool, args, out_path):
+    """The run's JSON lines, and its trajectory's headings (scan -> degrees)
+    when it closed loops (the lines keep the chain's own)."""
+    csv_path = out_path.replace(".jsonl", ".csv")
     with open(out_path, "w") as out:
-        subprocess.run([tool, "log", "-q"] + args, stdout=out, stderr=subprocess.DEVNULL, check=False)
+        done = subprocess.run([tool, "log", "-q", "--summary", "--trajectory", csv_path] + args,
+                              stdout=out, stderr=subprocess.PIPE, text=True, check=False)
     with open(out_path) as f:
-        return [json.loads(line) for line in f if line.strip()]
+        lines = [json.loads(line) for line in f if line.strip()]
+    corrected = None
+    if "loop closures:" in done.stderr and os.path.exists(csv_path):
+        with open(csv_path) as f:
+            corrected = {int(r["scan"]): math.degrees(float(r["theta"])) for r in csv.DictReader(f)}
+    return lines, corrected
 
 
 def headings(carmen_lines):
@@ -52,7 +65,8 @@ def headings(carmen_lines):
     return heading
 
 
-def score(lines, heading):
+def score(run_result, heading):
+    lines, corrected = run_result
     n = within = flagged = wrong = 0
     drift_max = drift_end = 0.0
     chained = False
@@ -73,7 +87,8 @@ def score(lines, heading):
         chain = r.get("chain")
         if chain:
             chained = True
-            drift_end = abs(wrap(chain["theta_deg"] - heading[b]))
+            theta = corrected[b] if corrected and b in corrected else chain["theta_deg"]
+            drift_end = abs(wrap(theta - heading[b]))
             drift_max = max(drift_max, drift_end)
     if n == 0:
         return None
@@ -97,7 +112,12 @@ def main():
     if not logs:
         sys.exit("no logs: give them, or put ../shared/data/logs next to the repository")
     os.makedirs(a.out, exist_ok=True)
-    ways = [("pairs alone", ["--prior", "none"]), ("motion prior", []), ("keyframes", ["--keyframes"])]
+    ways = [
+        ("pairs alone", ["--prior", "none"]),
+        ("default", []),
+        ("keyframes", ["--keyframes", "--no-loops"]),
+        ("keyframes + loops", ["--keyframes", "--loops"]),
+    ]
     print("| log | source | way | pairs | within 2° | flagged | confident > 5° off | heading drift max / end (°) |")
     print("|---|---|---|---|---|---|---|---|")
     for log in logs:
@@ -111,7 +131,7 @@ def main():
                 stdout=subprocess.DEVNULL,
             )
             sources.append((protocol.upper() if protocol == "ld06" else "RPLIDAR", [capture, "--format", protocol]))
-        truth = headings(run(a.tool, [log, "--prior", "none"], os.path.join(a.out, f"{name}.truth.jsonl")))
+        truth = headings(run(a.tool, [log, "--prior", "none"], os.path.join(a.out, f"{name}.truth.jsonl"))[0])
         for source, args in sources:
             for way, extra in ways:
                 path = os.path.join(a.out, f"{name}.{source}.{way.replace(' ', '-')}.jsonl")
