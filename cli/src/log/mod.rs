@@ -16,6 +16,7 @@ pub mod chain;
 mod figure;
 pub mod loops;
 mod pairing;
+mod placing;
 
 use std::io::{self, BufWriter, Write};
 use std::time::Instant;

@@ -6,7 +6,7 @@ use std::collections::VecDeque;
 use std::io::{self, BufWriter, Write};
 use std::sync::Arc;
 
-use hough_heading::odometry::{Against, DENSE_INTERVAL_S};
+use hough_heading::odometry::DENSE_INTERVAL_S;
 use hough_heading::{Angle, Mode, Prior};
 use hough_heading_recordings::engine::Engine;
 use hough_heading_recordings::line::OutputLine;
@@ -18,7 +18,7 @@ use indicatif::ProgressBar;
 use serde::Serialize;
 
 use super::args::{LogArgs, PairsArg, PriorArg};
-use super::chain::{Chain, ChainLine, Offer};
+use super::chain::{Chain, ChainLine};
 use crate::jobs::Workers;
 use crate::summary::{Method, Summary};
 
@@ -71,26 +71,18 @@ pub struct LogLine {
     pub chain: Option<ChainLine>,
 }
 
-/// The chain's best flagged estimate of a scan against its keyframe: the
-/// stored scan, the estimates, the prior they were made with and the
-/// odometry from the stored scan.
-type Guess = (
-    Against,
-    Vec<scans::PairEstimate>,
-    Option<Prior>,
-    Option<Pose>,
-);
-
 /// A pair's estimate, or why there is none.
-type PairResult = Result<Vec<scans::PairEstimate>, String>;
+pub(super) type PairResult = Result<Vec<scans::PairEstimate>, String>;
 
 /// A pair waiting for its estimate: the two scans and what the log says
 /// about their motion.
 pub(super) struct PairJob {
-    a: Kept,
-    b: Kept,
+    /// The first scan.
+    pub(super) a: Kept,
+    /// The second scan.
+    pub(super) b: Kept,
     /// The odometry's delta.
-    odom: Option<Pose>,
+    pub(super) odom: Option<Pose>,
     /// The log's own poses' delta.
     log_pose: Option<Pose>,
     /// The prior on the rotation (`--prior odom`).
@@ -221,161 +213,6 @@ impl Run<'_> {
             }
         }
         Ok(())
-    }
-
-    /// Estimates one pair now, on the first worker.
-    fn estimate_one(&mut self, a: &Kept, b: &Kept, prior: Option<Prior>) -> PairResult {
-        let pair = PairRecord {
-            scan1: a.1.record.clone(),
-            scan2: b.1.record.clone(),
-        };
-        let (options, mode) = (self.options, self.mode);
-        self.workers
-            .map(std::slice::from_ref(&pair), |engine, _, pair| {
-                scans::estimate_with_prior(engine.as_mut(), pair, &options, &[mode], prior)
-            })
-            .pop()
-            .unwrap_or_else(|| Err("no worker".into()))
-    }
-
-    /// Places the pair's second scan in the chain, if the run has one: it
-    /// is estimated against each stored scan the chain names (the pair's
-    /// own estimate where that is its first scan), first with the motion
-    /// prior when the chain wants it, until one places it. The pair's
-    /// result (the one the chain took, or the one made with the prior) and
-    /// what the chain made of the scan.
-    fn chain(
-        &mut self,
-        job: &PairJob,
-        result: PairResult,
-    ) -> (PairResult, Option<(ChainLine, Pose)>) {
-        let Some(mut chain) = self.chain.take() else {
-            return (result, None);
-        };
-        let mut line = result;
-        let mut guess: Option<Guess> = None;
-        let mut placed = None;
-        // First every stored scan's own answer that needs no prior (the
-        // pair's own estimate where that is its first scan); then, in the
-        // same order, the answers made again with the prior. A confident
-        // answer against the last placed scan is worth more than the
-        // keyframe's answer forced by the prior (on a dense stream such
-        // forced answers were the keyframes' drift).
-        let mut wanting = Vec::new();
-        for (against, stored) in chain.attempts(&job.b) {
-            let odom = stored.1.odom.zip(job.b.1.odom).map(|(p, q)| p.between(&q));
-            let own = stored.0 == job.a.0;
-            let first = if own {
-                line.clone()
-            } else {
-                self.estimate_one(&stored, &job.b, None)
-            };
-            let prior = first
-                .as_ref()
-                .ok()
-                .and_then(|e| chain.prior_for(against, &e[0]));
-            if prior.is_none() {
-                if let Ok(estimates) = &first {
-                    let offer = Offer {
-                        against,
-                        estimate: &estimates[0],
-                        prior: None,
-                    };
-                    if let Some(added) = chain.offer(&job.b, &offer, odom) {
-                        if own {
-                            line = first.clone();
-                        }
-                        placed = Some(added);
-                        break;
-                    }
-                    if against == Against::Keyframe && guess.is_none() {
-                        guess = Some((against, estimates.clone(), None, odom));
-                    }
-                }
-                continue;
-            }
-            wanting.push((against, stored, own, first, prior, odom));
-        }
-        'wanting: for (against, stored, own, first, prior, odom) in wanting {
-            if placed.is_some() {
-                // The pair's line still shows its answer made with the
-                // prior, as when the chain takes it.
-                if let (true, Some(prior)) = (own, prior) {
-                    line = self.estimate_one(&stored, &job.b, Some(prior));
-                }
-                continue;
-            }
-            // The answer made with the prior first: the original still
-            // places the scan if it is confident, unless the prior's own
-            // answer contradicts it.
-            let mut tries = Vec::new();
-            let mut contradicted = false;
-            if let Some(prior) = prior {
-                let again = self.estimate_one(&stored, &job.b, Some(prior));
-                contradicted = again
-                    .as_ref()
-                    .is_ok_and(|e| chain.contradicts(against, &e[0]));
-                tries.push((again, Some(prior)));
-            }
-            if !contradicted {
-                tries.push((first, None));
-            }
-            for (result, prior) in tries {
-                if own && prior.is_some() {
-                    line = result.clone();
-                }
-                let Ok(estimates) = &result else { continue };
-                let offer = Offer {
-                    against,
-                    estimate: &estimates[0],
-                    prior,
-                };
-                if let Some(added) = chain.offer(&job.b, &offer, odom) {
-                    // The line shows the answer the chain took.
-                    if own {
-                        line = result.clone();
-                    }
-                    placed = Some(added);
-                    break 'wanting;
-                }
-                if against == Against::Keyframe && (guess.is_none() || prior.is_some()) {
-                    guess = Some((against, estimates.clone(), prior, odom));
-                }
-            }
-        }
-        let added = placed.unwrap_or_else(|| {
-            let offer = guess.as_ref().map(|(against, e, prior, odom)| {
-                (
-                    Offer {
-                        against: *against,
-                        estimate: &e[0],
-                        prior: *prior,
-                    },
-                    *odom,
-                )
-            });
-            // The scan's estimate against the one just before, when the
-            // chain left that one unplaced: the pair's own (consecutive
-            // pairs), else made here (keyframe pairs).
-            let just_before = chain.unplaced_scan().filter(|s| s.0 != job.a.0).cloned();
-            let previous = match &just_before {
-                Some(before) => {
-                    let odom = before.1.odom.zip(job.b.1.odom).map(|(p, q)| p.between(&q));
-                    self.estimate_one(before, &job.b, None)
-                        .ok()
-                        .map(|e| (e, odom))
-                }
-                None => line
-                    .as_ref()
-                    .ok()
-                    .filter(|_| job.b.0 == job.a.0 + self.args.every)
-                    .map(|e| (e.clone(), job.odom)),
-            };
-            let previous = previous.as_ref().map(|(e, odom)| (&e[0], *odom));
-            chain.unplaced(&job.b, previous, offer.as_ref().map(|(o, odom)| (o, *odom)))
-        });
-        self.chain = Some(chain);
-        (line, Some(added))
     }
 
     /// Writes one estimated pair's line, and adds it to the trajectory and
