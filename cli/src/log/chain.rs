@@ -21,13 +21,6 @@ use hough_heading_recordings::trajectory::{fused_delta, Kept};
 
 use super::loops::Node;
 
-/// A stored scan and its chained pose.
-#[derive(Clone)]
-struct Stored {
-    scan: Kept,
-    pose: Pose,
-}
-
 /// The chain of a run, and the scans it may estimate the next one against.
 pub struct Chain {
     odometry: KeyframeOdometry,
@@ -36,13 +29,15 @@ pub struct Chain {
     sigma_from_time: bool,
     /// The time of the last scan tried, seconds.
     last_time: Option<f64>,
-    keyframe: Option<Stored>,
-    last_placed: Option<Stored>,
-    previous_keyframe: Option<Stored>,
+    /// The keyframe and the one before it: indices into `nodes`.
+    keyframe: Option<usize>,
+    previous_keyframe: Option<usize>,
     /// The last scan, when the chain left it unplaced: the next scan's
     /// estimate against it carries the hypothesis on.
     unplaced_scan: Option<Kept>,
-    /// Every placed scan, in order: the pose graph's nodes (`--loops`).
+    /// Every placed scan, in order, with its chained pose (the last is the
+    /// last placed scan): the stored scans, and the pose graph's nodes
+    /// (`--loops`).
     pub nodes: Vec<Node>,
 }
 
@@ -104,23 +99,21 @@ impl Chain {
     /// σ = `sigma_deg`.
     pub fn new(sigma_deg_given: Option<f64>, every_scan: bool) -> Self {
         let sigma_deg = sigma_deg_given.unwrap_or(30.0);
-        let mut settings = KeyframeSettings {
+        let settings = KeyframeSettings {
             prior_sigma: Angle::from_degrees(sigma_deg as f32),
             ..KeyframeSettings::default()
         };
-        if every_scan {
-            settings = settings.consecutive();
-        }
-        Self {
+        let mut chain = Self {
             odometry: KeyframeOdometry::new(settings),
             sigma_from_time: sigma_deg_given.is_none(),
             last_time: None,
             keyframe: None,
-            last_placed: None,
             previous_keyframe: None,
             unplaced_scan: None,
             nodes: Vec::new(),
-        }
+        };
+        chain.keep_every_scan(every_scan);
+        chain
     }
 
     /// Makes every placed scan a keyframe (consecutive pairs), or the
@@ -137,12 +130,7 @@ impl Chain {
     /// The first scan.
     pub fn start(&mut self, first: &Kept) {
         self.odometry.start();
-        let stored = Stored {
-            scan: first.clone(),
-            pose: Pose::ZERO,
-        };
-        self.keyframe = Some(stored.clone());
-        self.last_placed = Some(stored);
+        self.keyframe = Some(0);
         self.previous_keyframe = None;
         self.unplaced_scan = None;
         self.nodes = vec![Node {
@@ -153,11 +141,6 @@ impl Chain {
         self.last_time = first.1.time;
     }
 
-    /// The chain has its first scan.
-    pub fn started(&self) -> bool {
-        self.keyframe.is_some()
-    }
-
     /// The scan just before, when the chain left it unplaced.
     pub fn unplaced_scan(&self) -> Option<&Kept> {
         self.unplaced_scan.as_ref()
@@ -165,7 +148,7 @@ impl Chain {
 
     /// The current keyframe's scan.
     pub fn keyframe(&self) -> Option<&Kept> {
-        self.keyframe.as_ref().map(|s| &s.scan)
+        self.keyframe.map(|k| &self.nodes[k].scan)
     }
 
     /// The stored scans to try `scan` against, in order, with the scan
@@ -174,8 +157,8 @@ impl Chain {
     pub fn attempts(&mut self, scan: &Kept) -> Vec<(Against, Kept)> {
         if self.sigma_from_time {
             let since = self
-                .last_placed
-                .as_ref()
+                .nodes
+                .last()
                 .and_then(|s| Some(scan.1.time? - s.scan.1.time?));
             let since = since.map_or(f32::NAN, |t| t as f32);
             // The stream's rate at this scan: the time since the scan before.
@@ -194,12 +177,13 @@ impl Chain {
             .collect()
     }
 
-    fn stored(&self, against: Against) -> Option<&Stored> {
-        match against {
-            Against::Keyframe => self.keyframe.as_ref(),
-            Against::LastPlaced => self.last_placed.as_ref(),
-            Against::PreviousKeyframe => self.previous_keyframe.as_ref(),
-        }
+    fn stored(&self, against: Against) -> Option<&Node> {
+        let index = match against {
+            Against::Keyframe => self.keyframe,
+            Against::LastPlaced => self.nodes.len().checked_sub(1),
+            Against::PreviousKeyframe => self.previous_keyframe,
+        };
+        index.and_then(|k| self.nodes.get(k))
     }
 
     /// The prior to estimate the scan again with against `against`, when
@@ -281,7 +265,7 @@ impl Chain {
             _ => None,
         };
         let (pose, from_scan, prior) = taken.unwrap_or_else(|| {
-            let last = self.last_placed.as_ref().map_or(Pose::ZERO, |s| s.pose);
+            let last = self.nodes.last().map_or(Pose::ZERO, |s| s.pose);
             let r = from.between(&step.pose);
             let delta = Pose {
                 x: f64::from(r.x),
@@ -304,14 +288,9 @@ impl Chain {
     ) -> (ChainLine, Pose) {
         self.unplaced_scan = (!step.source.is_placed()).then(|| scan.clone());
         if step.source.is_placed() {
-            let stored = Stored {
-                scan: scan.clone(),
-                pose,
-            };
             if step.new_keyframe {
-                self.previous_keyframe = self.keyframe.replace(stored.clone());
+                self.previous_keyframe = self.keyframe.replace(self.nodes.len());
             }
-            self.last_placed = Some(stored);
             self.nodes.push(Node {
                 scan: scan.clone(),
                 pose,

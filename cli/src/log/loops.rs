@@ -151,7 +151,7 @@ impl Closure {
     pub fn disagreement_deg(&self, poses: &[Pose]) -> f64 {
         match (poses.get(self.from), poses.get(self.to)) {
             (Some(a), Some(b)) => {
-                wrap_deg((self.delta.theta - a.between(b).theta).to_degrees()).abs()
+                scans::wrap_deg((self.delta.theta - a.between(b).theta).to_degrees()).abs()
             }
             _ => f64::INFINITY,
         }
@@ -212,7 +212,7 @@ pub fn close(
             theta: e.dtheta_deg.to_radians(),
         };
         let chain = nodes[i].pose.between(&nodes[j].pose);
-        let residual_deg = wrap_deg((delta.theta - chain.theta).to_degrees());
+        let residual_deg = scans::wrap_deg((delta.theta - chain.theta).to_degrees());
         let sigma_deg = ((nodes[j].variance - nodes[i].variance).abs()
             + CLOSURE_SIGMA_DEG * CLOSURE_SIGMA_DEG)
             .sqrt();
@@ -307,7 +307,7 @@ fn accept(closures: &mut [Closure], variances: &[f64], settings: &LoopSettings) 
         let v = (variances[a.from] - variances[b.from]).abs()
             + (variances[a.to] - variances[b.to]).abs()
             + 2.0 * CLOSURE_SIGMA_DEG * CLOSURE_SIGMA_DEG;
-        wrap_deg(a.residual_deg - b.residual_deg).abs() <= 3.0 * v.sqrt()
+        scans::wrap_deg(a.residual_deg - b.residual_deg).abs() <= 3.0 * v.sqrt()
     };
     let accepted: Vec<bool> = (0..closures.len())
         .map(|a| {
@@ -415,7 +415,7 @@ pub fn write_closures(path: &Path, nodes: &[Node], solved: &Solved) -> Result<()
             chain.theta.to_degrees(),
             optimized.theta.to_degrees(),
             c.residual_deg,
-            wrap_deg((c.delta.theta - optimized.theta).to_degrees()),
+            scans::wrap_deg((c.delta.theta - optimized.theta).to_degrees()),
             c.accepted
         );
     }
@@ -456,16 +456,6 @@ pub fn write_g2o(path: &Path, nodes: &[Node], solved: &Solved) -> Result<(), Fat
         );
     }
     std::fs::write(path, out).map_err(|e| Fatal::io(format!("{}: {e}", path.display())))
-}
-
-/// Degrees wrapped to (−180, 180].
-fn wrap_deg(d: f64) -> f64 {
-    let w = (d + 180.0).rem_euclid(360.0) - 180.0;
-    if w == -180.0 {
-        180.0
-    } else {
-        w
-    }
 }
 
 #[cfg(test)]
@@ -534,7 +524,7 @@ mod tests {
         c.delta = truth[0].between(&truth[end]);
         c.accepted = true;
         let solved = solve(&chain, &variances, &[c]).unwrap();
-        let error = |p: &Pose, q: &Pose| wrap_deg((p.theta - q.theta).to_degrees()).abs();
+        let error = |p: &Pose, q: &Pose| scans::wrap_deg((p.theta - q.theta).to_degrees()).abs();
         assert!(error(&chain[end], &truth[end]) > 7.0);
         assert!(
             error(&solved[end], &truth[end]) < 1.0,

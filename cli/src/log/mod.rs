@@ -21,6 +21,8 @@ mod placing;
 use std::io::{self, BufWriter, Write};
 use std::time::Instant;
 
+use hough_heading_recordings::pairs::wrap_deg;
+use hough_heading_recordings::stats::quantile;
 use hough_heading_recordings::trajectory::Trajectory;
 use hough_heading_recordings::wire::WireReader;
 use hough_heading_recordings::{chain_report, evo};
@@ -239,13 +241,19 @@ fn close_loops(run: &mut Run<'_>, file: &str) -> Result<(), Fatal> {
         let (a, b) = (&nodes[c.from].scan.1, &nodes[c.to].scan.1);
         a.log_pose.zip(b.log_pose).map(|(p, q)| {
             let truth = p.between(&q).theta.to_degrees();
-            ((c.delta.theta.to_degrees() - truth + 180.0).rem_euclid(360.0) - 180.0).abs() > 5.0
+            wrap_deg(c.delta.theta.to_degrees() - truth).abs() > 5.0
         })
     };
     let accepted: Vec<&loops::Closure> = solved.closures.iter().filter(|c| c.accepted).collect();
     let count_wrong =
         |cs: &mut dyn Iterator<Item = &loops::Closure>| cs.filter_map(wrong).filter(|w| *w).count();
     let judged = accepted.iter().any(|c| wrong(c).is_some());
+    // Each accepted closure's heading difference to the optimized
+    // trajectory, degrees.
+    let after: Vec<f64> = accepted
+        .iter()
+        .map(|c| c.disagreement_deg(&solved.poses))
+        .collect();
     if !run.args.quiet || run.args.summary {
         let wrong_text = if judged {
             format!(
@@ -256,10 +264,7 @@ fn close_loops(run: &mut Run<'_>, file: &str) -> Result<(), Fatal> {
         } else {
             String::new()
         };
-        let agreeing = accepted
-            .iter()
-            .filter(|c| c.disagreement_deg(&solved.poses) <= 1.0)
-            .count();
+        let agreeing = after.iter().filter(|d| **d <= 1.0).count();
         eprintln!(
             "hough-heading: {file}: loop closures: {} confident tried, {} accepted into the pose graph of {} placed scans, {agreeing} of them within 1° of the optimized trajectory{wrong_text}",
             solved.closures.len(),
@@ -269,18 +274,15 @@ fn close_loops(run: &mut Run<'_>, file: &str) -> Result<(), Fatal> {
     }
     if run.args.summary && !accepted.is_empty() {
         let before: Vec<f64> = accepted.iter().map(|c| c.residual_deg.abs()).collect();
-        let after: Vec<f64> = accepted
-            .iter()
-            .map(|c| c.disagreement_deg(&solved.poses))
-            .collect();
+        let degrees = |values: &[f64], q: f64| format!("{:.2}", quantile(values, q));
         eprintln!(
             "hough-heading: {file}: accepted closures' heading difference to the trajectory, before / after the graph: median {} / {}°, 90th percentile {} / {}°, largest {} / {}°",
-            percentile(&before, 0.5),
-            percentile(&after, 0.5),
-            percentile(&before, 0.9),
-            percentile(&after, 0.9),
-            percentile(&before, 1.0),
-            percentile(&after, 1.0),
+            degrees(&before, 0.5),
+            degrees(&after, 0.5),
+            degrees(&before, 0.9),
+            degrees(&after, 0.9),
+            degrees(&before, 1.0),
+            degrees(&after, 1.0),
         );
     }
     if let Some(path) = &run.args.g2o {
@@ -290,14 +292,4 @@ fn close_loops(run: &mut Run<'_>, file: &str) -> Result<(), Fatal> {
         loops::write_closures(path, nodes, &solved)?;
     }
     Ok(())
-}
-
-/// The `q`-quantile (0–1, nearest rank) of `values`, degrees to 0.01.
-fn percentile(values: &[f64], q: f64) -> String {
-    let mut sorted = values.to_vec();
-    sorted.sort_by(f64::total_cmp);
-    let k = ((sorted.len() as f64 - 1.0) * q).round() as usize;
-    sorted
-        .get(k)
-        .map_or_else(|| "–".to_string(), |v| format!("{v:.2}"))
 }

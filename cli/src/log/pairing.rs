@@ -19,6 +19,7 @@ use serde::Serialize;
 
 use super::args::{LogArgs, PairsArg, PriorArg};
 use super::chain::{Chain, ChainLine};
+use super::placing::odom_between;
 use crate::jobs::Workers;
 use crate::summary::{Method, Summary};
 
@@ -158,7 +159,7 @@ impl Run<'_> {
     /// Queues one pair; a full batch is estimated and written.
     fn pair(&mut self, a: &Kept, b: &Kept) -> Result<(), Fatal> {
         let (s1, s2) = (&a.1, &b.1);
-        let odom = s1.odom.zip(s2.odom).map(|(p, q)| p.between(&q));
+        let odom = odom_between(a, b);
         let log_pose = s1.log_pose.zip(s2.log_pose).map(|(p, q)| p.between(&q));
         let prior = match (self.args.prior(), odom) {
             (PriorArg::Odom, Some(d)) => Some(Prior {

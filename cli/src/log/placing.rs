@@ -9,7 +9,7 @@ use hough_heading_recordings::model::Pose;
 use hough_heading_recordings::pairs::{self as scans, PairRecord};
 use hough_heading_recordings::trajectory::Kept;
 
-use super::chain::{ChainLine, Offer};
+use super::chain::{Chain, ChainLine, Offer};
 use super::pairing::{PairJob, PairResult, Run};
 
 /// The chain's best flagged estimate of a scan against its keyframe: the
@@ -21,6 +21,37 @@ type Guess = (
     Option<Prior>,
     Option<Pose>,
 );
+
+/// The odometry's motion from scan `a` to scan `b`, when both have a pose.
+pub(super) fn odom_between(a: &Kept, b: &Kept) -> Option<Pose> {
+    a.1.odom.zip(b.1.odom).map(|(p, q)| p.between(&q))
+}
+
+/// Offers `result` (the scan's estimate against `against`, made with
+/// `prior` if given; `odom` the odometry from the stored scan) to the
+/// chain: the line and pose when it places the scan. An estimate against
+/// the keyframe that does not is kept as the guess (one made with the
+/// prior before one made without).
+fn offer(
+    chain: &mut Chain,
+    scan: &Kept,
+    (against, odom): (Against, Option<Pose>),
+    result: &PairResult,
+    prior: Option<Prior>,
+    guess: &mut Option<Guess>,
+) -> Option<(ChainLine, Pose)> {
+    let estimates = result.as_ref().ok()?;
+    let offer = Offer {
+        against,
+        estimate: &estimates[0],
+        prior,
+    };
+    let added = chain.offer(scan, &offer, odom);
+    if added.is_none() && against == Against::Keyframe && (guess.is_none() || prior.is_some()) {
+        *guess = Some((against, estimates.clone(), prior, odom));
+    }
+    added
+}
 
 impl Run<'_> {
     /// Estimates one pair now, on the first worker.
@@ -63,7 +94,7 @@ impl Run<'_> {
         // forced answers were the keyframes' drift).
         let mut wanting = Vec::new();
         for (against, stored) in chain.attempts(&job.b) {
-            let odom = stored.1.odom.zip(job.b.1.odom).map(|(p, q)| p.between(&q));
+            let odom = odom_between(&stored, &job.b);
             let own = stored.0 == job.a.0;
             let first = if own {
                 line.clone()
@@ -74,72 +105,63 @@ impl Run<'_> {
                 .as_ref()
                 .ok()
                 .and_then(|e| chain.prior_for(against, &e[0]));
-            if prior.is_none() {
-                if let Ok(estimates) = &first {
-                    let offer = Offer {
-                        against,
-                        estimate: &estimates[0],
-                        prior: None,
-                    };
-                    if let Some(added) = chain.offer(&job.b, &offer, odom) {
-                        if own {
-                            line = first.clone();
-                        }
-                        placed = Some(added);
-                        break;
+            let Some(prior) = prior else {
+                placed = offer(
+                    &mut chain,
+                    &job.b,
+                    (against, odom),
+                    &first,
+                    None,
+                    &mut guess,
+                );
+                if placed.is_some() {
+                    if own {
+                        line = first;
                     }
-                    if against == Against::Keyframe && guess.is_none() {
-                        guess = Some((against, estimates.clone(), None, odom));
-                    }
+                    break;
                 }
                 continue;
-            }
+            };
             wanting.push((against, stored, own, first, prior, odom));
         }
         'wanting: for (against, stored, own, first, prior, odom) in wanting {
-            if placed.is_some() {
-                // The pair's line still shows its answer made with the
-                // prior, as when the chain takes it.
-                if let (true, Some(prior)) = (own, prior) {
-                    line = self.estimate_one(&stored, &job.b, Some(prior));
-                }
-                continue;
-            }
             // The answer made with the prior first: the original still
             // places the scan if it is confident, unless the prior's own
-            // answer contradicts it.
-            let mut tries = Vec::new();
-            let mut contradicted = false;
-            if let Some(prior) = prior {
-                let again = self.estimate_one(&stored, &job.b, Some(prior));
-                contradicted = again
-                    .as_ref()
-                    .is_ok_and(|e| chain.contradicts(against, &e[0]));
-                tries.push((again, Some(prior)));
+            // answer contradicts it. Once the scan is placed, the pair's
+            // line still shows its answer made with the prior, as when the
+            // chain takes it.
+            if placed.is_some() && !own {
+                continue;
             }
+            let again = self.estimate_one(&stored, &job.b, Some(prior));
+            if own {
+                line = again.clone();
+            }
+            if placed.is_some() {
+                continue;
+            }
+            let contradicted = again
+                .as_ref()
+                .is_ok_and(|e| chain.contradicts(against, &e[0]));
+            let mut tries = vec![(again, Some(prior))];
             if !contradicted {
                 tries.push((first, None));
             }
             for (result, prior) in tries {
-                if own && prior.is_some() {
-                    line = result.clone();
-                }
-                let Ok(estimates) = &result else { continue };
-                let offer = Offer {
-                    against,
-                    estimate: &estimates[0],
+                placed = offer(
+                    &mut chain,
+                    &job.b,
+                    (against, odom),
+                    &result,
                     prior,
-                };
-                if let Some(added) = chain.offer(&job.b, &offer, odom) {
+                    &mut guess,
+                );
+                if placed.is_some() {
                     // The line shows the answer the chain took.
                     if own {
-                        line = result.clone();
+                        line = result;
                     }
-                    placed = Some(added);
                     break 'wanting;
-                }
-                if against == Against::Keyframe && (guess.is_none() || prior.is_some()) {
-                    guess = Some((against, estimates.clone(), prior, odom));
                 }
             }
         }
@@ -160,7 +182,7 @@ impl Run<'_> {
             let just_before = chain.unplaced_scan().filter(|s| s.0 != job.a.0).cloned();
             let previous = match &just_before {
                 Some(before) => {
-                    let odom = before.1.odom.zip(job.b.1.odom).map(|(p, q)| p.between(&q));
+                    let odom = odom_between(before, &job.b);
                     self.estimate_one(before, &job.b, None)
                         .ok()
                         .map(|e| (e, odom))
