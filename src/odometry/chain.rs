@@ -512,6 +512,15 @@ mod tests {
         })
     }
 
+    /// `chain` started, and its second scan placed by a confident step of
+    /// `dtheta_deg`.
+    fn after_one_step(mut chain: KeyframeOdometry, dtheta_deg: f32) -> KeyframeOdometry {
+        chain.start();
+        let (e, m) = step(dtheta_deg, Status::Confident, 0.9);
+        chain.place(Against::Keyframe, &e, &m, false).unwrap();
+        chain
+    }
+
     fn heading(s: &Step) -> f32 {
         s.pose.heading.to_degrees()
     }
@@ -543,10 +552,7 @@ mod tests {
 
     #[test]
     fn a_flagged_scan_is_bridged_by_the_next_and_never_guessed() {
-        let mut chain = consecutive(2);
-        chain.start();
-        let (e, m) = step(10.0, Status::Confident, 0.9);
-        chain.place(Against::Keyframe, &e, &m, false).unwrap();
+        let mut chain = after_one_step(consecutive(2), 10.0);
         // Flagged: not placed, whatever its answer.
         let (e, m) = step(-170.0, Status::LowOverlap, 0.2);
         assert!(chain.wants_prior(Against::Keyframe, &e));
@@ -569,10 +575,7 @@ mod tests {
 
     #[test]
     fn a_bridge_must_agree_with_the_prediction() {
-        let mut chain = consecutive(2);
-        chain.start();
-        let (e, m) = step(0.0, Status::Confident, 0.9);
-        chain.place(Against::Keyframe, &e, &m, false).unwrap();
+        let mut chain = after_one_step(consecutive(2), 0.0);
         let (f, fm) = step(0.0, Status::LowOverlap, 0.2);
         chain.leave_unplaced(None, Some((Against::Keyframe, &f, &fm)));
         // A confident answer over the gap 145° from the prediction (0°) is
@@ -580,10 +583,8 @@ mod tests {
         let (e, m) = step(145.0, Status::Confident, 0.6);
         assert_eq!(chain.place(Against::Keyframe, &e, &m, false), None);
         // …but a confident answer for the next scan alone is always taken.
-        let mut fresh = consecutive(2);
-        fresh.start();
-        let (e0, m0) = step(0.0, Status::Confident, 0.9);
-        fresh.place(Against::Keyframe, &e0, &m0, false).unwrap();
+        let mut fresh = after_one_step(consecutive(2), 0.0);
+        let (e0, _) = step(0.0, Status::Confident, 0.9);
         assert!(
             fresh.wants_prior(Against::Keyframe, &e),
             "145° is beyond 3σ of 0°"
@@ -595,10 +596,7 @@ mod tests {
     #[test]
     fn a_dense_stream_takes_no_answer_the_prior_made() {
         let dense = KeyframeSettings::default().consecutive().for_interval(0.1);
-        let mut chain = KeyframeOdometry::new(dense);
-        chain.start();
-        let (e, m) = step(4.0, Status::Confident, 0.9);
-        chain.place(Against::Keyframe, &e, &m, false).unwrap();
+        let mut chain = after_one_step(KeyframeOdometry::new(dense), 4.0);
         // Made confident by the prior, 6° from the prediction (2°, gate
         // 15°): a sparse log would take it, a dense stream does not.
         let (p, pm) = step(8.0, Status::Confident, 0.5);
@@ -624,10 +622,7 @@ mod tests {
 
     #[test]
     fn unplaced_scans_follow_their_own_confident_steps_then_are_carried() {
-        let mut chain = consecutive(1);
-        chain.start();
-        let (e, m) = step(4.0, Status::Confident, 0.9);
-        chain.place(Against::Keyframe, &e, &m, false).unwrap();
+        let mut chain = after_one_step(consecutive(1), 4.0);
         let (f, fm) = step(30.0, Status::LowOverlap, 0.2);
         // First unplaced: the guess is within 3σ (30°) of the prediction (2°).
         let s = chain.leave_unplaced(None, Some((Against::Keyframe, &f, &fm)));
