@@ -15,18 +15,20 @@
 //!    (verification, free space, beam check). Only confident answers are
 //!    closures.
 //! 3. **Which count.** A closure's heading must lie within 3σ of the
-//!    chain's own relative heading (σ from the chain's variances, the
-//!    closure's own 2°), its translation within a metre plus what three
-//!    such σ allow over the path between its ends, and it must agree with
-//!    another closure that passed (pairwise consistency: two closures
-//!    measure the same drift where the chain between their ends is
-//!    certain), with two others where the chain's σ is above
+//!    chain's own relative heading (σ from the chain's variances, each
+//!    step's at most [`STEP_SIGMA_CAP_DEG`], and the closure's own 2°),
+//!    its translation within a metre plus what three such σ allow over
+//!    the path between its ends, and it must agree with another closure
+//!    that passed (pairwise consistency: two closures measure the same
+//!    drift where the chain between their ends is certain), with two
+//!    others where the chain's σ is above
 //!    [`LoopSettings::trusted_sigma_deg`] (revisits give 90° and 180°
 //!    answers, DESIGN.md §3i).
 //! 4. **The graph.** Each placed scan a node; between consecutive ones the
-//!    chain's own step (heading σ from the chain's variances, translation
-//!    5 cm + 5 % of the step); each accepted closure a factor (heading σ
-//!    0.5°, translation 0.5 m) under a Huber kernel; the first scan fixed.
+//!    chain's own step (heading σ from the chain's variances, at most
+//!    [`STEP_SIGMA_CAP_DEG`]; translation 5 cm + 5 % of the step); each
+//!    accepted closure a factor (heading σ 0.5°, translation 0.5 m) under
+//!    a Huber kernel; the first scan fixed.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -114,6 +116,17 @@ const CLOSURE_SIGMA_M: f64 = 0.5;
 /// The translation σ of a closure whose estimate did not observe its
 /// translation (a corridor): metres, so wide it does not bind.
 const UNOBSERVED_SIGMA_M: f64 = 1000.0;
+/// The most heading σ one chain step brings to the closures' check and to
+/// the graph, degrees. A step the chain carried states 30° and more: its
+/// answer is one of a few candidates, right or tens of degrees off, not a
+/// Gaussian. Summed over a sparse log's carried steps that σ let 90° and
+/// 180° revisit answers through the check (DESIGN.md §3i: on the shared
+/// logs 12 of 78 accepted closures were more than 5° off, none at 3°), and
+/// in the graph it let one closure bend a carried step by any amount (with
+/// only the right closures, the steps uncapped: aces 23.3° largest error,
+/// seattle 8.3°; capped at 3°: 8.5°, 2.1°). Chosen on the shared logs and
+/// dense streams (5°: two wrong closures in on orebro; `docs/drift.md`).
+const STEP_SIGMA_CAP_DEG: f64 = 3.0;
 /// The window of the place descriptors, metres from the sensor.
 const PLACE_RADIUS_M: f32 = 10.0;
 
@@ -180,6 +193,7 @@ pub fn close(
     let signatures = workers.map(nodes, |engine, _, node| {
         signature(engine.as_mut(), &node.scan)
     });
+    let variances = capped_variances(nodes.iter().map(|n| n.variance));
     let path = path_lengths(nodes);
     let queries = candidates(nodes, &path, &signatures, workers, settings);
     let estimated = workers.map(&queries, |engine, _, &(i, j)| {
@@ -213,9 +227,8 @@ pub fn close(
         };
         let chain = nodes[i].pose.between(&nodes[j].pose);
         let residual_deg = scans::wrap_deg((delta.theta - chain.theta).to_degrees());
-        let sigma_deg = ((nodes[j].variance - nodes[i].variance).abs()
-            + CLOSURE_SIGMA_DEG * CLOSURE_SIGMA_DEG)
-            .sqrt();
+        let sigma_deg =
+            ((variances[j] - variances[i]).abs() + CLOSURE_SIGMA_DEG * CLOSURE_SIGMA_DEG).sqrt();
         let path = path[j] - path[i];
         closures.push(Closure {
             from: i,
@@ -237,11 +250,27 @@ pub fn close(
             accepted: false,
         });
     }
-    let variances: Vec<f64> = nodes.iter().map(|n| n.variance).collect();
     let chain: Vec<Pose> = nodes.iter().map(|n| n.pose).collect();
     accept(&mut closures, &variances, settings);
     let poses = solve(&chain, &variances, &closures)?;
     Ok(Solved { closures, poses })
+}
+
+/// The chain's heading variance at each node (`chained`, degrees²) with
+/// each step's share capped at [`STEP_SIGMA_CAP_DEG`]².
+fn capped_variances(chained: impl IntoIterator<Item = f64>) -> Vec<f64> {
+    let cap = STEP_SIGMA_CAP_DEG * STEP_SIGMA_CAP_DEG;
+    let mut before = None;
+    let mut sum = 0.0;
+    chained
+        .into_iter()
+        .map(|v| {
+            if let Some(b) = before.replace(v) {
+                sum += (v - b).clamp(0.0, cap);
+            }
+            sum
+        })
+        .collect()
 }
 
 /// The place descriptor of a scan: its signature on a fixed window.
@@ -441,9 +470,10 @@ pub fn write_g2o(path: &Path, nodes: &[Node], solved: &Solved) -> Result<(), Fat
             d.x, d.y, d.theta
         );
     };
+    let variances = capped_variances(nodes.iter().map(|n| n.variance));
     for k in 1..nodes.len() {
         let step = nodes[k - 1].pose.between(&nodes[k].pose);
-        let heading = (nodes[k].variance - nodes[k - 1].variance).max(0.01).sqrt();
+        let heading = (variances[k] - variances[k - 1]).max(0.01).sqrt();
         edge(k - 1, k, &step, heading, 0.05 + 0.05 * step.x.hypot(step.y));
     }
     for c in solved.closures.iter().filter(|c| c.accepted) {
@@ -492,6 +522,36 @@ mod tests {
         accept(&mut closures, &variances, &LoopSettings::default());
         let accepted: Vec<bool> = closures.iter().map(|c| c.accepted).collect();
         assert_eq!(accepted, [true, true, false, false, false]);
+    }
+
+    #[test]
+    fn a_carried_step_does_not_open_the_gate_to_quarter_turns() {
+        // 100 nodes, 0.25° σ a step, and one carried step (σ 30°) at node
+        // 30: its stated variance would let a revisit's quarter-turn answer
+        // through; capped, it does not, and the right closures stay.
+        let mut chained = vec![0.0];
+        for k in 1..100 {
+            let step = if k == 30 { 900.0 } else { 0.0625 };
+            chained.push(chained[k - 1] + step);
+        }
+        let verdicts = |variances: &[f64]| {
+            let sigma = |a: usize, b: usize| (variances[b] - variances[a] + 4.0).sqrt();
+            let mut closures = vec![
+                closure(0, 60, 1.0, sigma(0, 60)),
+                closure(2, 62, 1.5, sigma(2, 62)),
+                closure(4, 64, 0.5, sigma(4, 64)),
+                // A symmetric place, seen twice: two alike wrong answers.
+                closure(6, 66, 88.0, sigma(6, 66)),
+                closure(8, 68, 89.0, sigma(8, 68)),
+                closure(10, 70, 87.5, sigma(10, 70)),
+            ];
+            accept(&mut closures, variances, &LoopSettings::default());
+            closures.iter().map(|c| c.accepted).collect::<Vec<_>>()
+        };
+        assert_eq!(verdicts(&chained), [true; 6]);
+        let capped = capped_variances(chained.iter().copied());
+        assert!((capped[99] - (98.0 * 0.0625 + 9.0)).abs() < 1e-9);
+        assert_eq!(verdicts(&capped), [true, true, true, false, false, false]);
     }
 
     #[test]
