@@ -222,6 +222,76 @@ fn trajectory_drift(csv: &Path) -> (f64, f64) {
     (largest, last)
 }
 
+/// The loop closure report of a run's stderr: closures accepted, accepted
+/// and within 1° of the optimized trajectory, accepted and more than 5°
+/// off the recording's poses.
+fn closure_counts(err: &str) -> (usize, usize, usize) {
+    let report = err
+        .lines()
+        .find(|l| l.contains("loop closures:"))
+        .unwrap_or_else(|| panic!("no loop closure report: {err}"));
+    // "… N confident tried, A accepted into the pose graph of P placed
+    // scans, W of them within 1° …; … X of the accepted, …"
+    let number_before = |marker: &str| -> usize {
+        let head = &report[..report
+            .find(marker)
+            .unwrap_or_else(|| panic!("{marker}: {report}"))];
+        let word = head.split_whitespace().last().expect("a number");
+        word.trim_start_matches(": ").parse().expect(word)
+    };
+    let wrong = if report.contains(" of the accepted") {
+        number_before(" of the accepted")
+    } else {
+        0
+    };
+    (
+        number_before(" accepted into"),
+        number_before(" of them within 1°"),
+        wrong,
+    )
+}
+
+/// On the shared whole logs (consecutive pairs, kept about every metre),
+/// `log` closes loops by default: no closure more than 5° off the log's
+/// poses gets in, the closures never make the largest heading error
+/// larger, and on Seattle the corrected heading meets issue 46's targets
+/// (≤ 5° all along, ≤ 2° at the end; measured 2.1° and −1.8°, 3.5° and
+/// −1.1° without closures; `docs/drift.md`).
+#[test]
+fn shared_logs_close_their_loops_without_a_wrong_one() {
+    let Some(logs) = common::shared_data("logs") else {
+        return;
+    };
+    for name in ["aces", "orebro", "seattle", "freiburg-campus"] {
+        let file = logs.join(format!("{name}-corrected.log.gz"));
+        let file = file.to_str().unwrap();
+        let csv = common::scratch_file("stream", &format!("{name}-loops.csv"));
+        let run = |extra: &[&str]| {
+            let mut args = vec!["log", "-q", "--summary", file, "--trajectory"];
+            args.push(csv.to_str().unwrap());
+            args.extend_from_slice(extra);
+            let o = tool(&args);
+            assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+            (stderr(&o), trajectory_drift(&csv))
+        };
+        let (err, (largest, last)) = run(&[]);
+        assert!(err.contains("consecutive pairs scored"), "{name}: {err}");
+        let (_, _, wrong) = closure_counts(&err);
+        assert_eq!(wrong, 0, "{name}: {err}");
+        let (_, (largest_alone, _)) = run(&["--no-loops"]);
+        assert!(
+            largest <= largest_alone + 0.5,
+            "{name}: {largest:.1}° with closures, {largest_alone:.1}° without"
+        );
+        if name == "seattle" {
+            assert!(
+                largest <= 5.0 && last.abs() <= 2.0,
+                "{largest:.2}° / {last:.2}°"
+            );
+        }
+    }
+}
+
 /// A dense stream (the bundled 10 Hz excerpt of the semi-synthetic Seattle
 /// stream, exact truth): by default `log` takes keyframes and closes its
 /// loops; every closure it accepts is right (within 5° of the truth), most
@@ -243,25 +313,10 @@ fn a_dense_stream_takes_keyframes_and_closes_its_loops() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let err = stderr(&o);
     assert!(err.contains("keyframe pairs scored"), "{err}");
-    let report = err
-        .lines()
-        .find(|l| l.contains("loop closures:"))
-        .unwrap_or_else(|| panic!("no loop closure report: {err}"));
-    // "… N confident tried, A accepted into the pose graph of P placed
-    // scans, W of them within 1° …; … X of the accepted, …"
-    let number_before = |marker: &str| -> usize {
-        let head = &report[..report
-            .find(marker)
-            .unwrap_or_else(|| panic!("{marker}: {report}"))];
-        let word = head.split_whitespace().last().expect("a number");
-        word.trim_start_matches(": ").parse().expect(word)
-    };
-    let accepted = number_before(" accepted into");
-    let within = number_before(" of them within 1°");
-    let wrong = number_before(" of the accepted");
-    assert!(accepted >= 10, "{report}");
-    assert_eq!(wrong, 0, "{report}");
-    assert!(4 * within >= 3 * accepted, "{report}");
+    let (accepted, within, wrong) = closure_counts(&err);
+    assert!(accepted >= 10, "{err}");
+    assert_eq!(wrong, 0, "{err}");
+    assert!(4 * within >= 3 * accepted, "{err}");
     let (largest, _) = trajectory_drift(&csv);
     assert!(largest <= 2.0, "corrected heading {largest:.2}° off");
     // Without them: no closure, the chain's own trajectory.

@@ -111,24 +111,24 @@ pub struct LogArgs {
     pub prior_sigma: Option<f64>,
     /// Loop closures and a pose graph at the end of a chained run: the
     /// corrected poses go to `--trajectory`, `--plot` and `--summary` (the
-    /// JSON lines keep the chain's). By default on for keyframe runs (dense
-    /// streams: on the shared ones no wrong closure got in, and the drift
-    /// fell) and off for consecutive pairs (logs kept every metre: wrong
-    /// closures got in); `docs/drift.md`.
+    /// JSON lines keep the chain's). The default on every chained run (on
+    /// the shared logs, captures and dense streams no wrong closure got in,
+    /// and the largest heading error fell; `docs/drift.md`); the flag says
+    /// so explicitly.
     #[arg(long, conflicts_with = "no_loops")]
     pub loops: bool,
-    /// No loop closures, whatever the stream.
+    /// No loop closures (the chain's own poses everywhere).
     #[arg(long)]
     pub no_loops: bool,
     /// Writes the pose graph as `.g2o` (VERTEX_SE2, EDGE_SE2) for g2o or
-    /// GTSAM users; implies `--loops`.
-    #[arg(long, value_name = "FILE")]
+    /// GTSAM users (a chained run with loop closures).
+    #[arg(long, value_name = "FILE", conflicts_with = "no_loops")]
     pub g2o: Option<PathBuf>,
     /// Writes every loop closure tried as CSV: its scans, its heading
     /// change, the chain's and the optimized trajectory's between the same
     /// scans, the differences before and after the graph (degrees), and
-    /// whether it was accepted; implies `--loops`.
-    #[arg(long, value_name = "FILE")]
+    /// whether it was accepted (a chained run with loop closures).
+    #[arg(long, value_name = "FILE", conflicts_with = "no_loops")]
     pub closures: Option<PathBuf>,
     /// Shorthand for `--pairs keyframes`.
     #[arg(long, conflicts_with = "pairs")]
@@ -205,15 +205,9 @@ impl LogArgs {
         self.prior_sigma.unwrap_or(default)
     }
 
-    /// The run closes loops: `--loops`, `--g2o` or `--closures` on a
-    /// chained run, or a
-    /// keyframe run (`way`: the pairs it made) without `--no-loops`.
-    pub fn closes_loops(&self, way: PairsArg) -> bool {
-        self.chained()
-            && (self.loops
-                || self.g2o.is_some()
-                || self.closures.is_some()
-                || (way == PairsArg::Keyframes && !self.no_loops))
+    /// The run closes loops: a chained run without `--no-loops`.
+    pub fn closes_loops(&self) -> bool {
+        self.chained() && !self.no_loops
     }
 
     /// The run chains the scans (motion prior or keyframes).

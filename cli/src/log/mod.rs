@@ -156,7 +156,7 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
             start.elapsed().as_secs_f64()
         );
     }
-    let closed_loops = args.closes_loops(run.way);
+    let closed_loops = args.closes_loops();
     if closed_loops {
         close_loops(&mut run, &file)?;
     }
