@@ -6,9 +6,10 @@ logs' corrected poses.
 For each CARMEN log given (default: ../shared/data/logs/*.log.gz) it writes
 the log as an LD06 and an RPLIDAR capture (tools/log_captures.py: 360
 points a turn, clockwise, 0 = no return), runs `hough-heading log` on the
-log and on both captures in four ways (`--prior none`: the pairs alone;
+log and on both captures in five ways (`--prior none`: the pairs alone;
 the default, which on these logs kept every metre is consecutive pairs
-with the motion prior; keyframes without and with loop closures), and
+with the motion prior and loop closures; the same without closures;
+keyframes without and with loop closures), and
 prints one markdown table row per log, source and way:
 
 - within 2 deg, flagged, confident and > 5 deg off (count / confident),
@@ -115,6 +116,7 @@ def main():
     ways = [
         ("pairs alone", ["--prior", "none"]),
         ("default", []),
+        ("consecutive, no loops", ["--pairs", "consecutive", "--no-loops"]),
         ("keyframes", ["--keyframes", "--no-loops"]),
         ("keyframes + loops", ["--keyframes", "--loops"]),
     ]
@@ -134,7 +136,7 @@ def main():
         truth = headings(run(a.tool, [log, "--prior", "none"], os.path.join(a.out, f"{name}.truth.jsonl"))[0])
         for source, args in sources:
             for way, extra in ways:
-                path = os.path.join(a.out, f"{name}.{source}.{way.replace(' ', '-')}.jsonl")
+                path = os.path.join(a.out, f"{name}.{source}.{way.replace(' ', '-').replace(',', '')}.jsonl")
                 s = score(run(a.tool, args + extra, path), truth)
                 if s is None:
                     continue

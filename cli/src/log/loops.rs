@@ -20,10 +20,12 @@
 //!    its translation within a metre plus what three such σ allow over
 //!    the path between its ends, and it must agree with another closure
 //!    that passed (pairwise consistency: two closures measure the same
-//!    drift where the chain between their ends is certain), with two
-//!    others where the chain's σ is above
-//!    [`LoopSettings::trusted_sigma_deg`] (revisits give 90° and 180°
-//!    answers, DESIGN.md §3i).
+//!    drift where the chain between their ends is certain). Where the
+//!    chain's σ is above [`LoopSettings::trusted_sigma_deg`] it must agree
+//!    with two others, one of them elsewhere: at least
+//!    [`LoopSettings::elsewhere_nodes`] placed scans away at one end,
+//!    through a chain trusted between the two (revisits give 90° and 180°
+//!    answers, DESIGN.md §3i, and a symmetric place gives them alike).
 //! 4. **The graph.** Each placed scan a node; between consecutive ones the
 //!    chain's own step (heading σ from the chain's variances, at most
 //!    [`STEP_SIGMA_CAP_DEG`]; translation 5 cm + 5 % of the step); each
@@ -85,6 +87,12 @@ pub struct LoopSettings {
     /// Below this relative heading σ (degrees) the chain's gate alone
     /// decides.
     pub trusted_sigma_deg: f64,
+    /// Placed scans between two closures' ends (at one end at least) for
+    /// them to count as revisits of different places: a symmetric place
+    /// gives the same wrong answer to every scan of a revisit (the shared
+    /// freiburg-campus RPLIDAR capture: five closures 89–91° off, from scans
+    /// 63–73 to 140–150, all consistent with each other).
+    pub elsewhere_nodes: usize,
 }
 
 impl Default for LoopSettings {
@@ -96,6 +104,7 @@ impl Default for LoopSettings {
             gate_m: 2.0,
             max_gate_m: 5.0,
             trusted_sigma_deg: 10.0,
+            elsewhere_nodes: 10,
         }
     }
 }
@@ -325,33 +334,41 @@ fn candidates(
     ranked.into_iter().flatten().collect()
 }
 
-/// Marks the closures that pass the chain's gate and, where the chain is
-/// uncertain, agree with two others.
+/// Marks the closures that pass the chain's gate and agree with another
+/// (where the chain is uncertain, with two, one of them elsewhere).
 fn accept(closures: &mut [Closure], variances: &[f64], settings: &LoopSettings) {
     let gated: Vec<bool> = closures
         .iter()
         .map(|c| c.residual_deg.abs() <= 3.0 * c.sigma_deg && c.offset_m <= c.offset_gate_m)
         .collect();
+    // The chain's heading variance between two closures' ends, degrees².
+    let between = |a: &Closure, b: &Closure| {
+        (variances[a.from] - variances[b.from]).abs() + (variances[a.to] - variances[b.to]).abs()
+    };
     let consistent = |a: &Closure, b: &Closure| {
-        let v = (variances[a.from] - variances[b.from]).abs()
-            + (variances[a.to] - variances[b.to]).abs()
-            + 2.0 * CLOSURE_SIGMA_DEG * CLOSURE_SIGMA_DEG;
+        let v = between(a, b) + 2.0 * CLOSURE_SIGMA_DEG * CLOSURE_SIGMA_DEG;
         scans::wrap_deg(a.residual_deg - b.residual_deg).abs() <= 3.0 * v.sqrt()
+    };
+    let trusted = settings.trusted_sigma_deg;
+    let elsewhere = |a: &Closure, b: &Closure| {
+        let apart = a.from.abs_diff(b.from).max(a.to.abs_diff(b.to)) >= settings.elsewhere_nodes;
+        apart && between(a, b) <= trusted * trusted
     };
     let accepted: Vec<bool> = (0..closures.len())
         .map(|a| {
+            let closure = &closures[a];
             if !gated[a] {
                 return false;
             }
-            let support = (0..closures.len())
-                .filter(|&b| b != a && gated[b] && consistent(&closures[a], &closures[b]))
-                .count();
-            let needed = if closures[a].sigma_deg <= settings.trusted_sigma_deg {
-                1
+            let supporters: Vec<&Closure> = (0..closures.len())
+                .filter(|&b| b != a && gated[b] && consistent(closure, &closures[b]))
+                .map(|b| &closures[b])
+                .collect();
+            if closure.sigma_deg <= trusted {
+                !supporters.is_empty()
             } else {
-                2
-            };
-            support >= needed
+                supporters.len() >= 2 && supporters.iter().any(|b| elsewhere(closure, b))
+            }
         })
         .collect();
     for (c, a) in closures.iter_mut().zip(accepted) {
@@ -540,18 +557,45 @@ mod tests {
                 closure(0, 60, 1.0, sigma(0, 60)),
                 closure(2, 62, 1.5, sigma(2, 62)),
                 closure(4, 64, 0.5, sigma(4, 64)),
-                // A symmetric place, seen twice: two alike wrong answers.
+                closure(20, 80, 0.5, sigma(20, 80)),
+                // A symmetric place, revisited twice: alike wrong answers.
                 closure(6, 66, 88.0, sigma(6, 66)),
                 closure(8, 68, 89.0, sigma(8, 68)),
-                closure(10, 70, 87.5, sigma(10, 70)),
+                closure(24, 84, 87.5, sigma(24, 84)),
             ];
             accept(&mut closures, variances, &LoopSettings::default());
             closures.iter().map(|c| c.accepted).collect::<Vec<_>>()
         };
-        assert_eq!(verdicts(&chained), [true; 6]);
+        assert_eq!(verdicts(&chained), [true; 7]);
         let capped = capped_variances(chained.iter().copied());
         assert!((capped[99] - (98.0 * 0.0625 + 9.0)).abs() < 1e-9);
-        assert_eq!(verdicts(&capped), [true, true, true, false, false, false]);
+        assert_eq!(
+            verdicts(&capped),
+            [true, true, true, true, false, false, false]
+        );
+    }
+
+    #[test]
+    fn an_uncertain_chain_takes_a_closure_seen_elsewhere_too() {
+        // 100 nodes, 0.25° σ a step, one step of σ 30° at node 30: every
+        // closure across it is beyond the trusted σ.
+        let variances: Vec<f64> = (0..100)
+            .map(|k| k as f64 * 0.0625 + if k >= 30 { 900.0 } else { 0.0 })
+            .collect();
+        let sigma = |a: usize, b: usize| (variances[b] - variances[a] + 4.0).sqrt();
+        let mut closures = vec![
+            // One revisit, and another 20 scans on: the same drift.
+            closure(0, 60, 1.0, sigma(0, 60)),
+            closure(2, 62, 1.5, sigma(2, 62)),
+            closure(20, 80, 0.5, sigma(20, 80)),
+            // A symmetric place: three alike wrong answers, one revisit.
+            closure(6, 66, 88.0, sigma(6, 66)),
+            closure(8, 68, 89.0, sigma(8, 68)),
+            closure(10, 70, 87.5, sigma(10, 70)),
+        ];
+        accept(&mut closures, &variances, &LoopSettings::default());
+        let accepted: Vec<bool> = closures.iter().map(|c| c.accepted).collect();
+        assert_eq!(accepted, [true, true, true, false, false, false]);
     }
 
     #[test]
