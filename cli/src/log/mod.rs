@@ -156,10 +156,11 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
             start.elapsed().as_secs_f64()
         );
     }
-    let closed_loops = args.closes_loops();
-    if closed_loops {
-        close_loops(&mut run, &file)?;
-    }
+    let closures = if args.closes_loops() {
+        close_loops(&mut run, &file)?
+    } else {
+        0
+    };
     if args.summary && run.summary.is_empty() {
         // Nothing to score against: what the run shows without it.
         eprintln!(
@@ -202,7 +203,10 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
                 .file
                 .file_name()
                 .map_or(file.clone(), |n| n.to_string_lossy().into_owned());
-            let loops = if closed_loops { ", loops closed" } else { "" };
+            let loops = match closures {
+                0 => String::new(),
+                n => format!(", {n} loop closures"),
+            };
             let title = format!("{name}: {} pairs chained{loops}", run.way.name());
             figure::plot(t, path, &title)?;
         }
@@ -212,10 +216,11 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
 
 /// `--loops`: closes the run's loops and puts the corrected poses into its
 /// trajectory (each scan moved with the placed scan at or before it);
-/// reports the closures on stderr, and writes `--g2o`.
-fn close_loops(run: &mut Run<'_>, file: &str) -> Result<(), Fatal> {
+/// reports the closures on stderr, and writes `--g2o`. The number of
+/// closures accepted.
+fn close_loops(run: &mut Run<'_>, file: &str) -> Result<usize, Fatal> {
     let Some(chain) = &run.chain else {
-        return Ok(());
+        return Ok(0);
     };
     let nodes = &chain.nodes;
     let solved = loops::close(
@@ -291,5 +296,5 @@ fn close_loops(run: &mut Run<'_>, file: &str) -> Result<(), Fatal> {
     if let Some(path) = &run.args.closures {
         loops::write_closures(path, nodes, &solved)?;
     }
-    Ok(())
+    Ok(accepted.len())
 }
