@@ -4,10 +4,10 @@
 //! of the run.
 //!
 //! 1. **Where to look.** Every [`LoopSettings::stride`]-th placed scan is a
-//!    query; the placed scans at least [`LoopSettings::min_gap`] scans
-//!    before it whose chained position lies within the gate (a few metres
-//!    plus what the chain's heading σ since then may have moved it) are the
-//!    candidates.
+//!    query; the placed scans at least [`LoopSettings::min_gap`] scans and
+//!    [`LoopSettings::min_path_m`] of path before it whose chained position
+//!    lies within the gate (a few metres plus what the chain's heading σ
+//!    since then may have moved it) are the candidates.
 //! 2. **Which to try.** The candidates are ranked by the place descriptor
 //!    (`hough_heading::place`: the signature correlated over every shift,
 //!    on a fixed 10 m window around the sensor) and the first
@@ -75,6 +75,11 @@ pub struct Node {
 pub struct LoopSettings {
     /// Scans between the two ends of a closure, at least.
     pub min_gap: usize,
+    /// Chained path between the two ends of a closure, metres, at least:
+    /// a robot standing still sees the same view 50 scans on, and the chain
+    /// between such scans is already exact (on the dense real streams 34,
+    /// 85 and 51 of the 231, 156 and 128 closures accepted were such).
+    pub min_path_m: f64,
     /// Every this many placed scans is a query.
     pub stride: usize,
     /// Candidates estimated per query.
@@ -99,6 +104,7 @@ impl Default for LoopSettings {
     fn default() -> Self {
         Self {
             min_gap: 50,
+            min_path_m: 2.0,
             stride: 5,
             top: 3,
             gate_m: 2.0,
@@ -316,7 +322,11 @@ fn candidates(
         let mut near: Vec<(usize, f64)> = nodes[..j]
             .iter()
             .enumerate()
-            .filter(|(i, n)| n.scan.0 + settings.min_gap <= nodes[j].scan.0 && *i < j)
+            .filter(|(i, n)| {
+                *i < j
+                    && n.scan.0 + settings.min_gap <= nodes[j].scan.0
+                    && path[j] - path[*i] >= settings.min_path_m
+            })
             .filter(|(i, n)| {
                 let sigma = (nodes[j].variance - n.variance).abs().sqrt().to_radians();
                 let gate = settings.gate_m + (path[j] - path[*i]) * sigma.min(1.0);
