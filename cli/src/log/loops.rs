@@ -533,79 +533,88 @@ mod tests {
         }
     }
 
+    /// Which of `ends` (from, to, the closure's heading minus the chain's,
+    /// degrees) `accept` takes on a chain of heading `variances`.
+    fn verdicts(variances: &[f64], ends: &[(usize, usize, f64)]) -> Vec<bool> {
+        let sigma = |a: usize, b: usize| (variances[b] - variances[a] + 4.0).sqrt();
+        let mut closures: Vec<Closure> = ends
+            .iter()
+            .map(|&(a, b, residual)| closure(a, b, residual, sigma(a, b)))
+            .collect();
+        accept(&mut closures, variances, &LoopSettings::default());
+        closures.iter().map(|c| c.accepted).collect()
+    }
+
+    /// 100 nodes, 0.25° σ a step, and one carried step of σ 30° at node 30:
+    /// the chain's heading variance at each node.
+    fn chain_with_a_carried_step() -> Vec<f64> {
+        (0..100)
+            .map(|k| match k {
+                0..30 => k as f64 * 0.0625,
+                _ => (k - 1) as f64 * 0.0625 + 900.0,
+            })
+            .collect()
+    }
+
     #[test]
     fn a_half_turn_closure_is_rejected_and_consistent_ones_kept() {
         // A chain of 100 nodes, 0.25° σ a step.
         let variances: Vec<f64> = (0..100).map(|k| k as f64 * 0.0625).collect();
-        let sigma = |a: usize, b: usize| (variances[b] - variances[a] + 4.0).sqrt();
-        let mut closures = vec![
-            closure(0, 60, 1.0, sigma(0, 60)),
-            closure(2, 62, 1.5, sigma(2, 62)),
-            closure(4, 64, 180.0, sigma(4, 64)),
-            closure(6, 66, 90.0, sigma(6, 66)),
+        let ends = [
+            (0, 60, 1.0),
+            (2, 62, 1.5),
+            (4, 64, 180.0),
+            (6, 66, 90.0),
             // Within the gate but alone: nothing agrees with it.
-            closure(50, 99, -9.0, sigma(50, 99)),
+            (50, 99, -9.0),
         ];
-        accept(&mut closures, &variances, &LoopSettings::default());
-        let accepted: Vec<bool> = closures.iter().map(|c| c.accepted).collect();
-        assert_eq!(accepted, [true, true, false, false, false]);
+        assert_eq!(
+            verdicts(&variances, &ends),
+            [true, true, false, false, false]
+        );
     }
 
     #[test]
     fn a_carried_step_does_not_open_the_gate_to_quarter_turns() {
-        // 100 nodes, 0.25° σ a step, and one carried step (σ 30°) at node
-        // 30: its stated variance would let a revisit's quarter-turn answer
-        // through; capped, it does not, and the right closures stay.
-        let mut chained = vec![0.0];
-        for k in 1..100 {
-            let step = if k == 30 { 900.0 } else { 0.0625 };
-            chained.push(chained[k - 1] + step);
-        }
-        let verdicts = |variances: &[f64]| {
-            let sigma = |a: usize, b: usize| (variances[b] - variances[a] + 4.0).sqrt();
-            let mut closures = vec![
-                closure(0, 60, 1.0, sigma(0, 60)),
-                closure(2, 62, 1.5, sigma(2, 62)),
-                closure(4, 64, 0.5, sigma(4, 64)),
-                closure(20, 80, 0.5, sigma(20, 80)),
-                // A symmetric place, revisited twice: alike wrong answers.
-                closure(6, 66, 88.0, sigma(6, 66)),
-                closure(8, 68, 89.0, sigma(8, 68)),
-                closure(24, 84, 87.5, sigma(24, 84)),
-            ];
-            accept(&mut closures, variances, &LoopSettings::default());
-            closures.iter().map(|c| c.accepted).collect::<Vec<_>>()
-        };
-        assert_eq!(verdicts(&chained), [true; 7]);
+        // The carried step's stated variance lets a revisit's quarter-turn
+        // answers through; capped, it does not, and the right closures stay.
+        let chained = chain_with_a_carried_step();
+        let ends = [
+            (0, 60, 1.0),
+            (2, 62, 1.5),
+            (4, 64, 0.5),
+            (20, 80, 0.5),
+            // A symmetric place, revisited twice: alike wrong answers.
+            (6, 66, 88.0),
+            (8, 68, 89.0),
+            (24, 84, 87.5),
+        ];
+        assert_eq!(verdicts(&chained, &ends), [true; 7]);
         let capped = capped_variances(chained.iter().copied());
         assert!((capped[99] - (98.0 * 0.0625 + 9.0)).abs() < 1e-9);
         assert_eq!(
-            verdicts(&capped),
+            verdicts(&capped, &ends),
             [true, true, true, true, false, false, false]
         );
     }
 
     #[test]
     fn an_uncertain_chain_takes_a_closure_seen_elsewhere_too() {
-        // 100 nodes, 0.25° σ a step, one step of σ 30° at node 30: every
-        // closure across it is beyond the trusted σ.
-        let variances: Vec<f64> = (0..100)
-            .map(|k| k as f64 * 0.0625 + if k >= 30 { 900.0 } else { 0.0 })
-            .collect();
-        let sigma = |a: usize, b: usize| (variances[b] - variances[a] + 4.0).sqrt();
-        let mut closures = vec![
+        // Every closure across the carried step is beyond the trusted σ.
+        let ends = [
             // One revisit, and another 20 scans on: the same drift.
-            closure(0, 60, 1.0, sigma(0, 60)),
-            closure(2, 62, 1.5, sigma(2, 62)),
-            closure(20, 80, 0.5, sigma(20, 80)),
+            (0, 60, 1.0),
+            (2, 62, 1.5),
+            (20, 80, 0.5),
             // A symmetric place: three alike wrong answers, one revisit.
-            closure(6, 66, 88.0, sigma(6, 66)),
-            closure(8, 68, 89.0, sigma(8, 68)),
-            closure(10, 70, 87.5, sigma(10, 70)),
+            (6, 66, 88.0),
+            (8, 68, 89.0),
+            (10, 70, 87.5),
         ];
-        accept(&mut closures, &variances, &LoopSettings::default());
-        let accepted: Vec<bool> = closures.iter().map(|c| c.accepted).collect();
-        assert_eq!(accepted, [true, true, true, false, false, false]);
+        assert_eq!(
+            verdicts(&chain_with_a_carried_step(), &ends),
+            [true, true, true, false, false, false]
+        );
     }
 
     #[test]
