@@ -484,6 +484,10 @@ fn unusable_files_exit_with_status_2() {
         vec!["--pairs", "reference", "--reference", "99"],
         vec!["--pairs", "window", "--trajectory", "/tmp/x.csv"],
         vec!["--prior-sigma", "-1"],
+        // Loop closures need a chained run, and closures to write.
+        vec!["--prior", "none", "--closures", "/tmp/x.csv"],
+        vec!["--prior", "odom", "--g2o", "/tmp/x.g2o"],
+        vec!["--no-loops", "--closures", "/tmp/x.csv"],
     ] {
         let mut all = vec!["log", "-q"];
         let file = data("seattle-excerpt.log");

@@ -85,6 +85,11 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
             "--trajectory and --plot chain the scans: use them with --pairs consecutive or keyframes",
         ));
     }
+    if (args.loops || args.g2o.is_some() || args.closures.is_some()) && !args.chained() {
+        return Err(Fatal::usage(
+            "--loops, --g2o and --closures close loops over a chained run: not with --prior none or odom",
+        ));
+    }
     let file = args.file.display().to_string();
     let bar = if args.quiet {
         ProgressBar::hidden()
