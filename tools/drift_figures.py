@@ -26,14 +26,13 @@ Usage: python3 tools/drift_figures.py [--tool target/release/hough-heading]
 """
 
 import argparse
-import collections
-import csv
 import glob
 import json
-import math
 import os
 import re
 import subprocess
+
+import chain_scores
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -47,10 +46,6 @@ WAYS = {
 }
 
 
-def wrap(d):
-    return (d + 180.0) % 360.0 - 180.0
-
-
 def run(tool, log, way, out):
     name = os.path.basename(log).replace(".log.gz", "")
     base = os.path.join(out, f"{name}.{way}")
@@ -62,60 +57,26 @@ def run(tool, log, way, out):
     return name, lines, err, base + ".csv"
 
 
-def score(lines, err, csv_path, way):
-    truth = {lines[0]["scan1"]: 0.0} if lines else {}
-    for r in lines:
-        if "log_pose" in r and r["scan1"] in truth:
-            truth[r["scan2"]] = truth[r["scan1"]] + r["log_pose"]["dtheta_deg"]
-    n = within = flagged = wrong = covered = 0
-    sources = collections.Counter()
-    drift_max = drift_end = 0.0
-    for r in lines:
-        b = r["scan2"]
-        if b not in truth or "log_pose" not in r:
-            continue
-        n += 1
-        if r.get("dtheta_deg") is None:
-            flagged += 1
-        else:
-            e = abs(wrap(r["dtheta_deg"] - r["log_pose"]["dtheta_deg"]))
-            within += e <= 2.0
-            if r["status"] != "confident":
-                flagged += 1
-            elif e > 5.0:
-                wrong += 1
-        c = r.get("chain")
-        if c:
-            sources[c["source"]] += 1
-            e = wrap(c["theta_deg"] - truth[b])
-            covered += abs(e) <= 2.0 * c.get("heading_sigma_deg", 0.0)
-            drift_max, drift_end = max(drift_max, abs(e)), e
-    closed = "loop closures:" in err
-    if closed and os.path.exists(csv_path):
-        drift_max = drift_end = 0.0
-        for row in csv.DictReader(open(csv_path)):
-            if row.get("log_theta"):
-                e = wrap(math.degrees(float(row["theta"]) - float(row["log_theta"])))
-                drift_max, drift_end = max(drift_max, abs(e)), e
+def score(lines, err, csv_path):
+    """The run's scores (chain_scores.score; the corrected trajectory where
+    it closed loops), its closures and the way it took, or None."""
+    closed = "loop closures:" in err and os.path.exists(csv_path)
+    corrected = chain_scores.trajectory_headings(csv_path) if closed else None
+    s = chain_scores.score(lines, chain_scores.log_headings(lines), corrected)
+    if s is None:
+        return None
     closures = re.search(r"loop closures: (\d+) confident tried, (\d+) accepted", err)
     agreeing = re.search(r"scans, (\d+) of them within 1", err)
     wrong_closures = re.search(r"poses: (\d+) of the accepted", err)
     taken = re.search(r"scans, \d+ (\w+) pairs", err)
-    return {
-        "n": n,
-        "within": 100.0 * within / max(n, 1),
-        "flagged": 100.0 * flagged / max(n, 1),
-        "wrong": wrong,
-        "max": drift_max,
-        "end": drift_end,
-        "cover": 100.0 * covered / max(n, 1),
-        "sources": sources,
-        "closures": closures.groups()
+    s["closures"] = (
+        closures.groups()
         + (wrong_closures.group(1) if wrong_closures else None, agreeing.group(1) if agreeing else None)
         if closures
-        else None,
-        "taken": taken.group(1) if taken else "?",
-    }
+        else None
+    )
+    s["taken"] = taken.group(1) if taken else "?"
+    return s
 
 
 def main():
@@ -135,13 +96,16 @@ def main():
     for log in logs:
         for way in a.ways.split(","):
             name, lines, err, csv_path = run(a.tool, log, way, a.out)
-            s = score(lines, err, csv_path, way)
+            s = score(lines, err, csv_path)
+            if s is None:
+                continue
             src = s["sources"]
+            largest, last = s["drift"] or (0.0, 0.0)
             c = s["closures"]
             closures = f"{c[0]} / {c[1]} / {c[2] or 0} / {c[3] or 0}" if c else "–"
             shown = f"default ({s['taken']}{', loops' if c else ''})" if way == "default" else way
-            print(f"| {name} | {shown} | {s['n']} | {s['within']:.1f} % | {s['flagged']:.1f} % | {s['wrong']} "
-                  f"| {s['max']:.1f} / {s['end']:.1f} | {s['cover']:.1f} % "
+            print(f"| {name} | {shown} | {s['pairs']} | {s['within']:.1f} % | {s['flagged']:.1f} % | {s['wrong']} "
+                  f"| {largest:.1f} / {last:.1f} | {s['cover']:.1f} % "
                   f"| {src['estimate']} / {src['prior']} / {src['unplaced']} / {src['carried']} | {closures} |",
                   flush=True)
 

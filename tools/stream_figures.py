@@ -17,27 +17,23 @@ prints one markdown table row per log, source and way:
   corrected headings of its two scans; capture revolution i is log scan i);
 - the chained heading (the line's `chain.theta_deg`, or the corrected
   trajectory, `--trajectory`, where the run closed loops) against the
-  log's: the largest and the final difference, degrees.
+  log's: the largest and the final (signed) difference, degrees.
 
 Usage: python3 tools/stream_figures.py [--tool target/release/hough-heading]
        [--out DIR] [LOG ...]
 """
 
 import argparse
-import csv
 import glob
 import json
-import math
 import os
 import subprocess
 import sys
 
+import chain_scores
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-
-
-def wrap(d):
-    return (d + 180.0) % 360.0 - 180.0
 
 
 def run(tool, args, out_path):
@@ -49,58 +45,8 @@ def run(tool, args, out_path):
                               stdout=out, stderr=subprocess.PIPE, text=True, check=False)
     with open(out_path) as f:
         lines = [json.loads(line) for line in f if line.strip()]
-    corrected = None
-    if "loop closures:" in done.stderr and os.path.exists(csv_path):
-        with open(csv_path) as f:
-            corrected = {int(r["scan"]): math.degrees(float(r["theta"])) for r in csv.DictReader(f)}
-    return lines, corrected
-
-
-def headings(carmen_lines):
-    """The log's corrected heading of each scan (degrees, scan 0 = 0)."""
-    step = {r["scan2"]: r["log_pose"]["dtheta_deg"] for r in carmen_lines if "log_pose" in r}
-    heading = {0: 0.0}
-    for i in sorted(step):
-        if i - 1 in heading:
-            heading[i] = heading[i - 1] + step[i]
-    return heading
-
-
-def score(run_result, heading):
-    lines, corrected = run_result
-    n = within = flagged = wrong = 0
-    drift_max = drift_end = 0.0
-    chained = False
-    for r in lines:
-        a, b = r.get("scan1"), r.get("scan2")
-        if a not in heading or b not in heading:
-            continue
-        n += 1
-        if r.get("dtheta_deg") is None:
-            flagged += 1
-            continue
-        err = abs(wrap(r["dtheta_deg"] - (heading[b] - heading[a])))
-        within += err <= 2.0
-        if r["status"] != "confident":
-            flagged += 1
-        elif err > 5.0:
-            wrong += 1
-        chain = r.get("chain")
-        if chain:
-            chained = True
-            theta = corrected[b] if corrected and b in corrected else chain["theta_deg"]
-            drift_end = abs(wrap(theta - heading[b]))
-            drift_max = max(drift_max, drift_end)
-    if n == 0:
-        return None
-    return {
-        "pairs": n,
-        "within": 100.0 * within / n,
-        "flagged": 100.0 * flagged / n,
-        "wrong": wrong,
-        "confident": n - flagged,
-        "drift": (drift_max, drift_end) if chained else None,
-    }
+    closed = "loop closures:" in done.stderr and os.path.exists(csv_path)
+    return lines, chain_scores.trajectory_headings(csv_path) if closed else None
 
 
 def main():
@@ -133,11 +79,13 @@ def main():
                 stdout=subprocess.DEVNULL,
             )
             sources.append((protocol.upper() if protocol == "ld06" else "RPLIDAR", [capture, "--format", protocol]))
-        truth = headings(run(a.tool, [log, "--prior", "none"], os.path.join(a.out, f"{name}.truth.jsonl"))[0])
+        truth_run = run(a.tool, [log, "--prior", "none"], os.path.join(a.out, f"{name}.truth.jsonl"))
+        truth = chain_scores.log_headings(truth_run[0])
         for source, args in sources:
             for way, extra in ways:
                 path = os.path.join(a.out, f"{name}.{source}.{way.replace(' ', '-').replace(',', '')}.jsonl")
-                s = score(run(a.tool, args + extra, path), truth)
+                lines, corrected = run(a.tool, args + extra, path)
+                s = chain_scores.score(lines, truth, corrected)
                 if s is None:
                     continue
                 drift = "–" if s["drift"] is None else "%.1f / %.1f" % s["drift"]
