@@ -222,6 +222,18 @@ fn trajectory_drift(csv: &Path) -> (f64, f64) {
     (largest, last)
 }
 
+/// `log -q --summary FILE --trajectory CSV EXTRA…` (exit status 0
+/// checked): its stderr, and the trajectory's heading error against the
+/// log's (largest, last; [`trajectory_drift`]).
+fn chained_run(file: &str, csv: &Path, extra: &[&str]) -> (String, (f64, f64)) {
+    let mut args = vec!["log", "-q", "--summary", file, "--trajectory"];
+    args.push(csv.to_str().unwrap());
+    args.extend_from_slice(extra);
+    let o = tool(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    (stderr(&o), trajectory_drift(csv))
+}
+
 /// The loop closure report of a run's stderr: closures accepted, accepted
 /// and within 1° of the optimized trajectory, accepted and more than 5°
 /// off the recording's poses.
@@ -266,14 +278,7 @@ fn shared_logs_close_their_loops_without_a_wrong_one() {
         let file = logs.join(format!("{name}-corrected.log.gz"));
         let file = file.to_str().unwrap();
         let csv = common::scratch_file("stream", &format!("{name}-loops.csv"));
-        let run = |extra: &[&str]| {
-            let mut args = vec!["log", "-q", "--summary", file, "--trajectory"];
-            args.push(csv.to_str().unwrap());
-            args.extend_from_slice(extra);
-            let o = tool(&args);
-            assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-            (stderr(&o), trajectory_drift(&csv))
-        };
+        let run = |extra: &[&str]| chained_run(file, &csv, extra);
         let (err, (largest, last)) = run(&[]);
         assert!(err.contains("consecutive pairs scored"), "{name}: {err}");
         let (_, _, wrong) = closure_counts(&err);
@@ -302,32 +307,14 @@ fn shared_logs_close_their_loops_without_a_wrong_one() {
 fn a_dense_stream_takes_keyframes_and_closes_its_loops() {
     let file = data("seattle-dense-excerpt.log.gz");
     let csv = common::scratch_file("stream", "dense-loops.csv");
-    let o = tool(&[
-        "log",
-        "-q",
-        "--summary",
-        &file,
-        "--trajectory",
-        csv.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let err = stderr(&o);
+    let (err, (largest, _)) = chained_run(&file, &csv, &[]);
     assert!(err.contains("keyframe pairs scored"), "{err}");
     let (accepted, within, wrong) = closure_counts(&err);
     assert!(accepted >= 10, "{err}");
     assert_eq!(wrong, 0, "{err}");
     assert!(4 * within >= 3 * accepted, "{err}");
-    let (largest, _) = trajectory_drift(&csv);
     assert!(largest <= 2.0, "corrected heading {largest:.2}° off");
     // Without them: no closure, the chain's own trajectory.
-    let o = tool(&[
-        "log",
-        "-q",
-        "--no-loops",
-        &file,
-        "--trajectory",
-        csv.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert!(!stderr(&o).contains("loop closures"));
+    let (err, _) = chained_run(&file, &csv, &["--no-loops"]);
+    assert!(!err.contains("loop closures"), "{err}");
 }

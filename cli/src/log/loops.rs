@@ -386,6 +386,16 @@ fn accept(closures: &mut [Closure], variances: &[f64], settings: &LoopSettings) 
     }
 }
 
+/// The graph's factor for the chain's step into node `k` (of the chain's
+/// poses, its heading `variances` in degrees², capped): the motion, its
+/// heading σ in degrees and its translation σ in metres (5 cm + 5 % of the
+/// step). [`solve`] and [`write_g2o`] write the same graph.
+fn chain_step(chain: &[Pose], variances: &[f64], k: usize) -> (Pose, f64, f64) {
+    let step = chain[k - 1].between(&chain[k]);
+    let heading_deg = (variances[k] - variances[k - 1]).max(0.01).sqrt();
+    (step, heading_deg, 0.05 + 0.05 * step.x.hypot(step.y))
+}
+
 /// The pose graph of the chain (`initial` poses, heading `variances` in
 /// degrees²) and the accepted closures, solved.
 fn solve(initial: &[Pose], variances: &[f64], closures: &[Closure]) -> Result<Vec<Pose>, Fatal> {
@@ -405,16 +415,11 @@ fn solve(initial: &[Pose], variances: &[f64], closures: &[Closure]) -> Result<Ve
         GaussianNoise::<3>::from_diag_sigmas(1e-4, 1e-4, 1e-4)
     ]);
     for k in 1..initial.len() {
-        let step = initial[k - 1].between(&initial[k]);
-        let heading = (variances[k] - variances[k - 1])
-            .max(0.01)
-            .sqrt()
-            .to_radians();
-        let xy = 0.05 + 0.05 * step.x.hypot(step.y);
+        let (step, heading_deg, xy) = chain_step(&initial, variances, k);
         graph.add_factor(fac![
             BetweenResidual::new(se2(&step)),
             (X(k as u32 - 1), X(k as u32)),
-            GaussianNoise::<3>::from_diag_sigmas(heading, xy, xy)
+            GaussianNoise::<3>::from_diag_sigmas(heading_deg.to_radians(), xy, xy)
         ]);
     }
     for c in closures.iter().filter(|c| c.accepted) {
@@ -497,11 +502,11 @@ pub fn write_g2o(path: &Path, nodes: &[Node], solved: &Solved) -> Result<(), Fat
             d.x, d.y, d.theta
         );
     };
+    let chain: Vec<Pose> = nodes.iter().map(|n| n.pose).collect();
     let variances = capped_variances(nodes.iter().map(|n| n.variance));
     for k in 1..nodes.len() {
-        let step = nodes[k - 1].pose.between(&nodes[k].pose);
-        let heading = (variances[k] - variances[k - 1]).max(0.01).sqrt();
-        edge(k - 1, k, &step, heading, 0.05 + 0.05 * step.x.hypot(step.y));
+        let (step, heading_deg, xy) = chain_step(&chain, &variances, k);
+        edge(k - 1, k, &step, heading_deg, xy);
     }
     for c in solved.closures.iter().filter(|c| c.accepted) {
         edge(
