@@ -75,7 +75,10 @@ fn summary_without_reference_poses_reports_the_chain_and_its_odometry() {
         }
         let by_status: Vec<String> = statuses.iter().map(|(s, n)| format!("{s} {n}")).collect();
         assert!(
-            err.contains(&format!("pairs by status: {}\n", by_status.join(", "))),
+            err.contains(&format!(
+                "pairs by their estimate's status (the JSON lines' `status`): {}\n",
+                by_status.join(", ")
+            )),
             "{err}"
         );
         let rows = headings(&std::fs::read_to_string(&csv).unwrap());
@@ -84,7 +87,10 @@ fn summary_without_reference_poses_reports_the_chain_and_its_odometry() {
             rows.iter().all(|r| r.1.is_some()),
             "{bag}: odometry in every row"
         );
-        assert!(err.contains("| pairs chained | 11 |"), "{err}");
+        assert!(
+            err.contains("| chain steps (one a scan after the first) | 11 |"),
+            "{err}"
+        );
         let turn: f64 = rows
             .windows(2)
             .map(|w| wrap_deg((w[1].0 - w[0].0).to_degrees()))
@@ -133,7 +139,10 @@ fn the_olin_bags_trajectory_carries_its_odometry() {
     assert!(rows[3..].iter().all(|r| r.1.is_some()));
     let err = stderr(&o);
     assert!(err.contains("no reference poses to score against"), "{err}");
-    assert!(err.contains("| pairs chained | 356 |"), "{err}");
+    assert!(
+        err.contains("| chain steps (one a scan after the first) | 356 |"),
+        "{err}"
+    );
     assert!(
         err.contains("steps within 2° of the odometry's turn"),
         "{err}"

@@ -441,22 +441,80 @@ fn carmen_bad_lines_are_reported_with_their_line_number() {
         "{e}"
     );
     assert_eq!(json_lines(&o).len(), 18);
-    // A NaN range.
-    let (nan, line) = edited_excerpt("nan.log", |k, l| {
+    // A range that is not a number at all.
+    let (word, line) = edited_excerpt("word.log", |k, l| {
         (k == 3).then(|| {
             let mut fields: Vec<&str> = l.split(' ').collect();
-            fields[11] = "nan";
+            fields[11] = "far";
             fields.join(" ")
         })
     });
-    let o = tool(&["log", "-q", &nan.display().to_string()]);
+    let o = tool(&["log", "-q", &word.display().to_string()]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     let e = stderr(&o);
-    assert!(e.contains(&format!("nan.log: line {line}: FLASER:")), "{e}");
     assert!(
-        e.contains("field 12 (range 9) is \"nan\", not a finite number"),
+        e.contains(&format!("word.log: line {line}: FLASER:")),
         "{e}"
     );
+    assert!(
+        e.contains("field 12 (range 9) is \"far\", not a number"),
+        "{e}"
+    );
+}
+
+#[test]
+fn carmen_nan_and_inf_ranges_are_beams_without_a_reading() {
+    // SICK drivers write `nan`/`inf` for a beam without an echo: the scan
+    // is kept (its other beams are read), the beams are counted, and the
+    // estimates are the same whichever way the file spells it.
+    let blank = |name: &str, word: &'static str| {
+        edited_excerpt(name, move |k, l| {
+            (k % 4 == 1).then(|| {
+                let mut fields: Vec<&str> = l.split(' ').collect();
+                for f in &mut fields[10..40] {
+                    *f = word;
+                }
+                fields.join(" ")
+            })
+        })
+        .0
+    };
+    let run = |path: &Path| {
+        let o = tool(&["log", "--summary", "-q", &path.display().to_string()]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        o
+    };
+    let whole = run(&logs().join("seattle-excerpt.log"));
+    let nan = run(&blank("nan.log", "nan"));
+    let inf = run(&blank("inf.log", "inf"));
+    assert_eq!(json_lines(&nan).len(), json_lines(&whole).len());
+    assert!(!stderr(&whole).contains("had no reading"));
+    let scans = json_lines(&whole).len().div_ceil(4);
+    for o in [&nan, &inf] {
+        let e = stderr(o);
+        assert!(
+            e.contains(&format!(
+                "{} beam(s) in {scans} scan(s) had no reading in the file",
+                30 * scans
+            )),
+            "{e}"
+        );
+    }
+    let fields = |o: &std::process::Output| {
+        json_lines(o)
+            .iter()
+            .map(estimate_fields)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(fields(&nan), fields(&inf));
+    // Each pair names the scans' beams without a reading, and only theirs.
+    for line in json_lines(&nan) {
+        for (side, scan) in ["scan1", "scan2"].iter().enumerate() {
+            let k = line[scan].as_u64().unwrap();
+            let not_finite = line["dropped"][side]["not_finite"].as_u64();
+            assert_eq!(not_finite, Some(if k % 4 == 1 { 30 } else { 0 }), "{line}");
+        }
+    }
 }
 
 #[test]

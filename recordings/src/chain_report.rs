@@ -5,7 +5,13 @@
 //!
 //! Definitions (angles in degrees):
 //!
-//! - *steps by source*: the chain's steps (one a pair) by what moved them
+//! These count the chain's steps, one a scan after the first; the pairs the
+//! run estimated (and their JSON lines' `status`) are counted apart, as
+//! `log` prints them before this table.
+//!
+//! - *chain steps placed by a confident estimate*: the steps whose source
+//!   is `estimate` or `estimate+odometry`.
+//! - *steps by source*: the chain's steps by what moved them
 //!   ([`Step::source`]: `estimate` and `estimate+odometry` are confident
 //!   estimates; `prior`, `unplaced`, `carried`, `odometry` and `none` are
 //!   flagged or failed pairs, by how the chain went on).
@@ -46,8 +52,11 @@ pub fn report(t: &Trajectory) -> Option<String> {
         .iter()
         .filter(|s| CONFIDENT.contains(&s.source))
         .count();
-    row("pairs chained", n.to_string());
-    row("confident", share(confident, n));
+    row("chain steps (one a scan after the first)", n.to_string());
+    row(
+        "chain steps placed by a confident estimate",
+        share(confident, n),
+    );
     let mut sources: Vec<&str> = steps.iter().map(|s| s.source).collect();
     sources.sort_unstable();
     sources.dedup();
@@ -150,9 +159,12 @@ mod tests {
             t.steps.push(step(i, 10.0 * i as f64, source, odom));
         }
         let report = report(&t).expect("a report");
-        assert!(report.contains("| pairs chained | 54 |"), "{report}");
         assert!(
-            report.contains("| confident | 98.1 % (53/54) |"),
+            report.contains("| chain steps (one a scan after the first) | 54 |"),
+            "{report}"
+        );
+        assert!(
+            report.contains("| chain steps placed by a confident estimate | 98.1 % (53/54) |"),
             "{report}"
         );
         assert!(

@@ -59,10 +59,18 @@ pub struct Scan {
     /// The odometry pose at the scan.
     pub odom: Option<Pose>,
     /// The log's own pose of the robot (`FLASER` x y θ: corrected in a
-    /// Radish `-corrected` log).
+    /// Radish `-corrected` log; a simulator's `TRUEPOS`).
     pub log_pose: Option<Pose>,
     /// Where it is in the file (`line 12`, `message 3 (topic /scan)`).
     pub name: String,
+}
+
+impl Scan {
+    /// Beams without a reading in the file (a non-finite range, or one
+    /// below the sensor's `range_min`): neither a return nor "no return".
+    pub fn missing_readings(&self) -> usize {
+        self.record.ranges.iter().filter(|r| r.is_none()).count()
+    }
 }
 
 /// An odometry pose of a recording.

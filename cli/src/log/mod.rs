@@ -118,6 +118,7 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
         failed: 0,
         summary: Summary::default(),
         statuses: Default::default(),
+        missing_readings: Default::default(),
         // `--summary` on consecutive pairs also scores the chain (APE, RPE).
         trajectory: (args.trajectory.is_some() || args.plot.is_some() || (args.summary && chains))
             .then(Trajectory::default),
@@ -161,6 +162,10 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
             start.elapsed().as_secs_f64()
         );
     }
+    let missing = run.missing_readings.text();
+    if let Some(text) = missing.as_ref().filter(|_| !args.quiet) {
+        eprintln!("hough-heading: {file}: {text}");
+    }
     let closures = if args.closes_loops() {
         close_loops(&mut run, &file)?
     } else {
@@ -179,7 +184,13 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
             .iter()
             .map(|(status, n)| format!("{status} {n}"))
             .collect();
-        eprintln!("pairs by status: {}", statuses.join(", "));
+        eprintln!(
+            "pairs by their estimate's status (the JSON lines' `status`): {}",
+            statuses.join(", ")
+        );
+        if let Some(text) = &missing {
+            eprintln!("{text}");
+        }
         if let Some(report) = run.trajectory.as_ref().and_then(chain_report::report) {
             eprintln!("\n{}", report);
         }
@@ -191,6 +202,9 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
             args.estimator.n_theta,
             run.summary.table()
         );
+        if let Some(text) = &missing {
+            eprintln!("{text}");
+        }
         if let Some(errors) = run.trajectory.as_ref().and_then(evo::report) {
             eprintln!("{errors}");
         }

@@ -121,6 +121,9 @@ pub(super) struct Run<'a> {
     /// The pairs' statuses (the output line's `status`), counted for
     /// `--summary` on a recording without reference poses.
     pub(super) statuses: std::collections::BTreeMap<&'static str, usize>,
+    /// Beams without a reading in the file (NaN, inf, below `range_min`)
+    /// and the scans that had any, over the scans read.
+    pub(super) missing_readings: MissingReadings,
     pub(super) trajectory: Option<Trajectory>,
     /// The chain of `--prior motion` and `--pairs keyframes`.
     pub(super) chain: Option<Chain>,
@@ -292,6 +295,28 @@ impl Run<'_> {
     }
 }
 
+/// Beams of the scans read that had no reading in the file.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct MissingReadings {
+    /// Such beams.
+    pub(super) beams: usize,
+    /// Scans with at least one.
+    pub(super) scans: usize,
+}
+
+impl MissingReadings {
+    /// The words for stderr, or `None` when every beam had a reading.
+    pub(super) fn text(&self) -> Option<String> {
+        (self.beams > 0).then(|| {
+            format!(
+                "{} beam(s) in {} scan(s) had no reading in the file (NaN, inf or below the \
+                 sensor's range_min): used as beams without a return",
+                self.beams, self.scans
+            )
+        })
+    }
+}
+
 /// Pairs the scans of `events` as asked; the number of scans read. Every
 /// pair before the end (or a fatal error) is estimated and written.
 pub(super) fn stream(
@@ -332,6 +357,11 @@ fn stream_pairs(
         }
         let index = scans;
         scans += 1;
+        let missing = scan.missing_readings();
+        if missing > 0 {
+            run.missing_readings.beams += missing;
+            run.missing_readings.scans += 1;
+        }
         if !index.is_multiple_of(args.every) {
             continue;
         }
