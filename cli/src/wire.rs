@@ -6,7 +6,7 @@
 //! on stderr.
 
 use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::{BufWriter, Read, Write};
 use std::path::PathBuf;
 
 use clap::Args;
@@ -54,6 +54,13 @@ pub fn geometry(max_range: f32, offset: Option<&[f32]>) -> Result<[f32; 3], Fata
 
 /// Runs `wire`: the number of revolutions written.
 ///
+/// The log says what the capture does not know: the robot's pose is
+/// unknown (`PARAM hough_heading_odometry none`; the pose fields hold
+/// `0 0 0`, which other CARMEN readers take at face value), and where the
+/// packets carry no clock (RPLIDAR, YDLIDAR) `PARAM hough_heading_clock
+/// none` (the time fields then hold the revolution's index). A run that
+/// fails leaves no output file.
+///
 /// # Errors
 /// Unusable arguments, an unreadable capture or an unwritable log; a capture
 /// without one complete revolution.
@@ -64,30 +71,47 @@ pub fn run(args: &WireArgs) -> Result<usize, Fatal> {
         File::open(&args.capture).map_err(|e| Fatal::io(format!("{name}: cannot read: {e}")))?;
     let mut reader = WireReader::new(file, args.protocol, args.max_range, offset);
     let out_name = args.out.display().to_string();
-    let sink: Box<dyn Write> = if out_name == "-" {
-        Box::new(std::io::stdout().lock())
-    } else {
-        Box::new(
-            File::create(&args.out)
-                .map_err(|e| Fatal::io(format!("{out_name}: cannot write: {e}")))?,
-        )
-    };
-    let mut out = BufWriter::new(sink);
+    if out_name == "-" {
+        let mut out = BufWriter::new(std::io::stdout().lock());
+        return write_log(&mut reader, args.protocol, &name, &mut out, &out_name);
+    }
+    // Written beside the target and renamed at the end: a failed run
+    // leaves neither a partial log nor a header-only one.
+    let cannot_write = |e: std::io::Error| Fatal::io(format!("{out_name}: cannot write: {e}"));
+    let mut partial = args.out.clone().into_os_string();
+    partial.push(".partial");
+    let partial = PathBuf::from(partial);
+    let result = File::create(&partial)
+        .map_err(cannot_write)
+        .and_then(|file| {
+            let mut out = BufWriter::new(file);
+            write_log(&mut reader, args.protocol, &name, &mut out, &out_name)
+        })
+        .and_then(|written| {
+            std::fs::rename(&partial, &args.out).map_err(cannot_write)?;
+            Ok(written)
+        });
+    if result.is_err() {
+        // Nothing to keep; a file that was never created is fine too.
+        let _ = std::fs::remove_file(&partial);
+    }
+    result
+}
+
+/// Writes the revolutions of `reader` to `out`: the number written.
+fn write_log<R: Read>(
+    reader: &mut WireReader<R>,
+    protocol: Protocol,
+    name: &str,
+    out: &mut impl Write,
+    out_name: &str,
+) -> Result<usize, Fatal> {
     let io = |e: std::io::Error| Fatal::io(format!("{out_name}: cannot write: {e}"));
-    writeln!(
-        out,
-        "# CARMEN log written by hough-heading wire from {name} ({} capture)\n\
-         # ROBOTLASER1 type start_angle fov angular_resolution max_range accuracy remission_mode \
-         n ranges m remissions laser_x laser_y laser_theta robot_x robot_y robot_theta tv rv \
-         forward_safety side_safety turn_axis timestamp hostname logger_timestamp\n\
-         # one line per revolution: beam i at i*0.5 deg counter-clockwise from the sensor's zero, \
-         remissions = the sensor's quality bytes, robot pose unknown (0 0 0), \
-         timestamp = the revolution's index (the capture has no clock)",
-        args.protocol
-    )
-    .map_err(io)?;
     let mut written = 0;
     while let Some(turn) = reader.next_turn() {
+        if written == 0 {
+            write_header(out, protocol, name, turn.time_s.is_some()).map_err(io)?;
+        }
         let record = reader.record(&turn);
         write!(
             out,
@@ -107,8 +131,14 @@ pub fn run(args: &WireArgs) -> Result<usize, Fatal> {
             write!(out, " {q}").map_err(io)?;
         }
         let [x, y, t] = record.laser_offset;
-        let i = turn.index;
-        writeln!(out, " {x} {y} {t} 0 0 0 0 0 0 0 0 {i} hough-lidar {i}").map_err(io)?;
+        let time = turn
+            .time_s
+            .map_or(turn.index.to_string(), |t| t.to_string());
+        writeln!(
+            out,
+            " {x} {y} {t} 0 0 0 0 0 0 0 0 {time} hough-lidar {time}"
+        )
+        .map_err(io)?;
         written += 1;
     }
     out.flush().map_err(io)?;
@@ -117,4 +147,34 @@ pub fn run(args: &WireArgs) -> Result<usize, Fatal> {
         return Err(Fatal::io(format!("{name}: no complete revolution")));
     }
     Ok(written)
+}
+
+/// The log's header: what it holds, and the `PARAM`s saying what it does
+/// not know (`timed`: the revolutions have the capture's own times).
+fn write_header(
+    out: &mut impl Write,
+    protocol: Protocol,
+    name: &str,
+    timed: bool,
+) -> std::io::Result<()> {
+    let time = if timed {
+        "timestamp = the revolution's time in seconds from the capture's packets \
+         (LD06 time stamps, XV-11 motor speed)"
+    } else {
+        "timestamp = the revolution's index (the packets carry no clock)"
+    };
+    writeln!(
+        out,
+        "# CARMEN log written by hough-heading wire from {name} ({protocol} capture)\n\
+         # ROBOTLASER1 type start_angle fov angular_resolution max_range accuracy remission_mode \
+         n ranges m remissions laser_x laser_y laser_theta robot_x robot_y robot_theta tv rv \
+         forward_safety side_safety turn_axis timestamp hostname logger_timestamp\n\
+         # one line per revolution: beam i at i*0.5 deg counter-clockwise from the sensor's zero, \
+         remissions = the sensor's quality bytes, robot pose unknown (written 0 0 0), {time}\n\
+         PARAM hough_heading_odometry none"
+    )?;
+    if !timed {
+        writeln!(out, "PARAM hough_heading_clock none")?;
+    }
+    Ok(())
 }

@@ -39,7 +39,13 @@ const QUICK: [&str; 3] = ["--size", "128", "-q"];
 fn log_reads_captures_one_scan_per_revolution() {
     for (protocol, revolutions) in [("ld06", 20), ("rplidar", 6), ("ydlidar", 6), ("xv11", 6)] {
         let file = capture(&format!("{protocol}.bin"));
-        let out = tool(&[&["log", &file, "--format", protocol][..], &QUICK].concat());
+        let out = tool(
+            &[
+                &["log", &file, "--format", protocol, "--pairs", "consecutive"][..],
+                &QUICK,
+            ]
+            .concat(),
+        );
         assert!(out.status.success(), "{protocol}: {}", stderr(&out));
         let lines = json_lines(&out);
         assert_eq!(lines.len(), revolutions - 1, "{protocol}");
@@ -70,7 +76,14 @@ fn capture_estimates_agree_with_the_source_log() {
     ));
     let b = json_lines(&tool(
         &[
-            &["log", &capture("ld06.bin"), "--format", "ld06"][..],
+            &[
+                "log",
+                &capture("ld06.bin"),
+                "--format",
+                "ld06",
+                "--pairs",
+                "consecutive",
+            ][..],
             &QUICK,
         ]
         .concat(),
@@ -121,6 +134,85 @@ fn wire_writes_a_carmen_log_that_log_reads_back_bit_for_bit() {
             "{protocol}"
         );
     }
+}
+
+#[test]
+fn wire_says_the_pose_is_unknown_and_gives_the_revolutions_own_times() {
+    // LD06 packets carry a time stamp: the bundled capture's are 2 ms a
+    // packet apart, 60 packets a revolution. RPLIDAR packets carry none.
+    for (protocol, period) in [("ld06", Some(0.12)), ("rplidar", None)] {
+        let file = capture(&format!("{protocol}.bin"));
+        let log = scratch(&format!("timed-{protocol}.log"));
+        let log_name = log.display().to_string();
+        let out = tool(&["wire", "--protocol", protocol, &file, "--out", &log_name]);
+        assert!(out.status.success(), "{protocol}: {}", stderr(&out));
+        let text = std::fs::read_to_string(&log).unwrap();
+        assert!(text.contains("\nPARAM hough_heading_odometry none\n"));
+        assert_eq!(
+            text.contains("\nPARAM hough_heading_clock none\n"),
+            period.is_none(),
+            "{protocol}"
+        );
+        // The timestamp field (after the 720 ranges, 720 remissions and
+        // the 11 fields from laser_x to turn_axis).
+        let times: Vec<f64> = text
+            .lines()
+            .filter(|l| l.starts_with("ROBOTLASER1"))
+            .map(|l| {
+                l.split(' ')
+                    .nth(9 + 720 + 1 + 720 + 11)
+                    .unwrap()
+                    .parse()
+                    .unwrap()
+            })
+            .collect();
+        for w in times.windows(2) {
+            assert!(
+                (w[1] - w[0] - period.unwrap_or(1.0)).abs() < 1e-9,
+                "{times:?}"
+            );
+        }
+        // Read back: no odometry to agree with, and a 10 Hz-class stream
+        // is chained on keyframes by its times.
+        let back = tool(&["log", &log_name, "--size", "128", "--summary"]);
+        assert!(back.status.success(), "{}", stderr(&back));
+        let err = stderr(&back);
+        assert!(!err.contains("odometry's turn"), "{err}");
+        assert!(!err.contains("against the odometry"), "{err}");
+        let chained_on = if period.is_some() {
+            "keyframe"
+        } else {
+            "consecutive"
+        };
+        assert!(
+            err.contains(&format!(" {chained_on} pairs (")),
+            "{protocol}: {err}"
+        );
+    }
+}
+
+#[test]
+fn a_failed_wire_leaves_no_output_file() {
+    let empty = scratch("nothing.bin");
+    std::fs::write(&empty, b"").unwrap();
+    let log = scratch("nothing.log");
+    let _ = std::fs::remove_file(&log);
+    let out = tool(&[
+        "wire",
+        "--protocol",
+        "ld06",
+        &empty.display().to_string(),
+        "--out",
+        &log.display().to_string(),
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(!log.exists());
+    let dir: Vec<_> = std::fs::read_dir(log.parent().unwrap())
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().starts_with("nothing.log"))
+        .collect();
+    assert!(dir.is_empty(), "{dir:?}");
 }
 
 #[test]

@@ -19,9 +19,9 @@ use std::fmt;
 use std::io::Read;
 
 use clap::ValueEnum;
-use hough_lidar::ld06::Ld06Layout;
+use hough_lidar::ld06::{self, Ld06Layout};
 use hough_lidar::rplidar::RplidarLayout;
-use hough_lidar::xv11::Xv11Layout;
+use hough_lidar::xv11::{self, Xv11Layout};
 use hough_lidar::ydlidar::YdlidarLayout;
 use hough_lidar::{
     AssemblerCounters, Counters, Layout, Ld06, Lidar, Revolution, Rplidar, Xv11, Ydlidar,
@@ -67,11 +67,12 @@ enum AnyLidar {
 }
 
 /// Feeds a byte (`None`: the end of the stream); a completed revolution,
-/// copied out.
+/// copied out, with what the packet that closed it says of time.
 fn feed<L: Layout, const CAP: usize>(
     lidar: &mut Lidar<L, CAP, BINS>,
     byte: Option<u8>,
-) -> Option<Turn> {
+    tick_of: fn(&[u8]) -> Tick,
+) -> Option<(Turn, Tick)> {
     let done = match byte {
         Some(b) => lidar.push(b),
         None => lidar.step(),
@@ -79,11 +80,96 @@ fn feed<L: Layout, const CAP: usize>(
     if !done {
         return None;
     }
-    lidar.revolution().map(|r| Turn {
-        ranges: r.ranges.to_vec(),
-        quality: r.quality.to_vec(),
-        index: r.index,
+    let tick = lidar
+        .parser()
+        .current()
+        .map_or(Tick::default(), |p| tick_of(p.bytes()));
+    lidar.revolution().map(|r| {
+        let turn = Turn {
+            ranges: r.ranges.to_vec(),
+            quality: r.quality.to_vec(),
+            index: r.index,
+            time_s: None,
+        };
+        (turn, tick)
     })
+}
+
+/// What a packet says of time: its time stamp (LD06: milliseconds,
+/// wrapping at [`LD06_STAMP_WRAP_MS`]) and the revolution period its motor
+/// speed gives, seconds.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Tick {
+    stamp_ms: Option<u16>,
+    period_s: Option<f64>,
+}
+
+/// The LD06 time stamp wraps at 30 000 ms (its development manual).
+const LD06_STAMP_WRAP_MS: u16 = 30_000;
+
+/// A period from a rate, seconds; `None` for a stopped or absurd motor
+/// (slower than 1 turn/s or faster than 100 turns/s).
+fn period_s(turns_per_s: f64) -> Option<f64> {
+    (1.0..=100.0)
+        .contains(&turns_per_s)
+        .then(|| 1.0 / turns_per_s)
+}
+
+fn ld06_tick(packet: &[u8]) -> Tick {
+    Tick {
+        stamp_ms: Some(ld06::timestamp_ms(packet) % LD06_STAMP_WRAP_MS),
+        period_s: period_s(f64::from(ld06::speed_deg_per_s(packet)) / 360.0),
+    }
+}
+
+fn xv11_tick(packet: &[u8]) -> Tick {
+    Tick {
+        stamp_ms: None,
+        period_s: period_s(f64::from(xv11::rpm(packet)) / 60.0),
+    }
+}
+
+/// RPLIDAR standard scan and YDLIDAR X2/X4 packets carry neither a time
+/// nor the motor speed.
+fn no_tick(_: &[u8]) -> Tick {
+    Tick::default()
+}
+
+/// The revolutions' times from their closing packets' [`Tick`]s, seconds
+/// from an arbitrary origin.
+///
+/// Where packets carry a time stamp (LD06) the time is the stamp, unwrapped
+/// (a stamp that did not move takes the motor's period); otherwise the
+/// periods are summed (XV-11). A revolution without either has no time,
+/// and neither have those after it: a capture has one clock or none.
+#[derive(Clone, Copy, Debug, Default)]
+struct Clock {
+    last_stamp_ms: Option<u16>,
+    time_s: Option<f64>,
+    started: bool,
+}
+
+impl Clock {
+    fn time(&mut self, tick: Tick) -> Option<f64> {
+        self.time_s = if self.started {
+            let stamp_step = match (tick.stamp_ms, self.last_stamp_ms) {
+                (Some(ms), Some(last)) => {
+                    let wrap = u32::from(LD06_STAMP_WRAP_MS);
+                    let dt_ms = (u32::from(ms) + wrap - u32::from(last)) % wrap;
+                    (dt_ms > 0).then(|| f64::from(dt_ms) / 1e3)
+                }
+                _ => None,
+            };
+            let step = stamp_step.or(tick.period_s);
+            self.time_s.zip(step).map(|(t, dt)| t + dt)
+        } else {
+            let stamp = tick.stamp_ms.map(|ms| f64::from(ms) / 1e3);
+            stamp.or(tick.period_s.map(|_| 0.0))
+        };
+        self.last_stamp_ms = tick.stamp_ms;
+        self.started = true;
+        self.time_s
+    }
 }
 
 /// A revolution: ranges (metres) and quality bytes of its [`BINS`] beams.
@@ -95,6 +181,11 @@ pub struct Turn {
     pub quality: Vec<u8>,
     /// Index among the complete revolutions.
     pub index: u32,
+    /// The revolution's time, seconds from an arbitrary origin, from the
+    /// packet that closed it: the LD06 time stamp (unwrapped), or the sum
+    /// of the XV-11 motor's periods; `None` where the packets carry no
+    /// clock (RPLIDAR, YDLIDAR) or the motor speed is implausible.
+    pub time_s: Option<f64>,
 }
 
 impl AnyLidar {
@@ -108,12 +199,12 @@ impl AnyLidar {
     }
 
     /// Feeds a byte (`None`: the end of the stream); a completed revolution.
-    fn feed(&mut self, byte: Option<u8>) -> Option<Turn> {
+    fn feed(&mut self, byte: Option<u8>) -> Option<(Turn, Tick)> {
         match self {
-            AnyLidar::Ld06(l) => feed(l, byte),
-            AnyLidar::Rplidar(l) => feed(l, byte),
-            AnyLidar::Ydlidar(l) => feed(l, byte),
-            AnyLidar::Xv11(l) => feed(l, byte),
+            AnyLidar::Ld06(l) => feed(l, byte, ld06_tick),
+            AnyLidar::Rplidar(l) => feed(l, byte, no_tick),
+            AnyLidar::Ydlidar(l) => feed(l, byte, no_tick),
+            AnyLidar::Xv11(l) => feed(l, byte, xv11_tick),
         }
     }
 
@@ -139,6 +230,7 @@ pub struct WireReader<R> {
     len: usize,
     done: bool,
     error: Option<String>,
+    clock: Clock,
 }
 
 impl<R: Read> WireReader<R> {
@@ -157,6 +249,7 @@ impl<R: Read> WireReader<R> {
             len: 0,
             done: false,
             error: None,
+            clock: Clock::default(),
         }
     }
 
@@ -167,11 +260,11 @@ impl<R: Read> WireReader<R> {
                 let byte = self.buf.get(self.pos).copied();
                 self.pos += 1;
                 if let Some(turn) = self.lidar.feed(byte) {
-                    return Some(turn);
+                    return Some(self.timed(turn));
                 }
             }
             if self.done {
-                return self.lidar.feed(None);
+                return self.lidar.feed(None).map(|turn| self.timed(turn));
             }
             match self.input.read(&mut self.buf) {
                 Ok(0) => self.done = true,
@@ -183,6 +276,11 @@ impl<R: Read> WireReader<R> {
                 }
             }
         }
+    }
+
+    fn timed(&mut self, (mut turn, tick): (Turn, Tick)) -> Turn {
+        turn.time_s = self.clock.time(tick);
+        turn
     }
 
     /// The scan of a revolution, as the pair files store it.
@@ -227,10 +325,83 @@ impl<R: Read> Iterator for WireReader<R> {
         let turn = self.next_turn()?;
         Some(Ok(Event::Scan(Scan {
             record: self.record(&turn),
-            time: None,
+            time: turn.time_s,
             odom: None,
             log_pose: None,
             name: format!("revolution {}", turn.index),
         })))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stamp(ms: u16, turns_per_s: f64) -> Tick {
+        Tick {
+            stamp_ms: Some(ms),
+            period_s: period_s(turns_per_s),
+        }
+    }
+
+    fn times(ticks: &[Tick]) -> Vec<Option<f64>> {
+        let mut clock = Clock::default();
+        ticks.iter().map(|&t| clock.time(t)).collect()
+    }
+
+    fn close(a: &[Option<f64>], b: &[Option<f64>]) -> bool {
+        a.len() == b.len()
+            && a.iter().zip(b).all(|(x, y)| match (x, y) {
+                (Some(x), Some(y)) => (x - y).abs() < 1e-9,
+                (None, None) => true,
+                _ => false,
+            })
+    }
+
+    #[test]
+    fn ld06_stamps_are_unwrapped_and_a_still_stamp_takes_the_motor_period() {
+        let t = times(&[
+            stamp(29_900, 10.0),
+            stamp(29_999, 10.0),
+            stamp(99, 10.0), // wrapped: 100 ms later
+            stamp(99, 12.5), // did not move: one period at 12.5 turns/s
+            stamp(199, 0.0), // motor speed absurd: the stamp still times it
+        ]);
+        let want = [29.9, 29.999, 30.099, 30.179, 30.279].map(Some);
+        assert!(close(&t, &want), "{t:?}");
+    }
+
+    #[test]
+    fn xv11_periods_are_summed_until_the_motor_speed_is_unknown() {
+        let rpm = |r: f64| Tick {
+            stamp_ms: None,
+            period_s: period_s(r / 60.0),
+        };
+        let t = times(&[rpm(300.0), rpm(300.0), rpm(240.0), rpm(0.0), rpm(300.0)]);
+        assert!(
+            close(&t, &[Some(0.0), Some(0.2), Some(0.45), None, None]),
+            "{t:?}"
+        );
+    }
+
+    #[test]
+    fn captures_without_a_clock_have_no_times() {
+        assert_eq!(times(&[Tick::default(); 3]), vec![None; 3]);
+    }
+
+    #[test]
+    fn the_bundled_ld06_capture_is_timed_by_its_stamps() {
+        // `lidar/tests/data/ld06.bin`: 60 packets a revolution, stamps
+        // 2 ms apart (written by the test-data generator).
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../lidar/tests/data/ld06.bin");
+        let file = std::fs::File::open(path).expect("capture");
+        let mut reader = WireReader::new(file, Protocol::Ld06, 81.91, [0.0; 3]);
+        let times: Vec<f64> = std::iter::from_fn(|| reader.next_turn())
+            .map(|t| t.time_s.expect("timed"))
+            .collect();
+        assert_eq!(times.len(), 20);
+        for w in times.windows(2) {
+            assert!((w[1] - w[0] - 0.12).abs() < 1e-9, "{times:?}");
+        }
     }
 }
