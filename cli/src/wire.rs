@@ -10,13 +10,18 @@ use std::io::{BufWriter, Read, Write};
 use std::path::PathBuf;
 
 use clap::Args;
+use indicatif::ProgressBar;
+use hough_heading_recordings::capture_file::capture_bytes;
+use hough_heading_recordings::open::open;
 use hough_heading_recordings::wire::{Protocol, WireReader, BINS};
 use hough_heading_recordings::Fatal;
 
 /// `wire --protocol P CAPTURE --out LOG`.
 #[derive(Clone, Debug, Args)]
 pub struct WireArgs {
-    /// The capture: the bytes as they came off the lidar's UART.
+    /// The capture: the bytes as they came off the lidar's UART, as stored
+    /// (gzip read directly) or as hex text (`54 2C …`, one packet a line or
+    /// not).
     pub capture: PathBuf,
     /// The lidar's protocol.
     #[arg(long, value_enum)]
@@ -67,9 +72,9 @@ pub fn geometry(max_range: f32, offset: Option<&[f32]>) -> Result<[f32; 3], Fata
 pub fn run(args: &WireArgs) -> Result<usize, Fatal> {
     let offset = geometry(args.max_range, args.laser_offset.as_deref())?;
     let name = args.capture.display().to_string();
-    let file =
-        File::open(&args.capture).map_err(|e| Fatal::io(format!("{name}: cannot read: {e}")))?;
-    let mut reader = WireReader::new(file, args.protocol, args.max_range, offset);
+    let input = open(&args.capture, &ProgressBar::hidden())?;
+    let bytes = capture_bytes(input, &name, args.protocol)?;
+    let mut reader = WireReader::new(bytes, args.protocol, args.max_range, offset);
     let out_name = args.out.display().to_string();
     if out_name == "-" {
         let mut out = BufWriter::new(std::io::stdout().lock());

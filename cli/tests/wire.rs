@@ -281,3 +281,103 @@ fn unusable_captures_are_errors() {
     ]);
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// The bundled LD06 capture as an ESP32 logger prints it: one 47-byte
+/// packet a line, upper-case hex bytes separated by spaces.
+fn hex_text_capture(name: &str) -> PathBuf {
+    let bytes = std::fs::read(capture("ld06.bin")).unwrap();
+    let text: String = bytes
+        .chunks(47)
+        .map(|packet| {
+            let hex: Vec<String> = packet.iter().map(|b| format!("{b:02X}")).collect();
+            hex.join(" ") + "\r\n"
+        })
+        .collect();
+    let file = scratch(name);
+    std::fs::write(&file, text).unwrap();
+    file
+}
+
+#[test]
+fn hex_text_captures_are_read_as_the_bytes_they_spell() {
+    let binary = capture("ld06.bin");
+    let hex = hex_text_capture("ld06-hex.txt").display().to_string();
+    let args = ["--format", "ld06", "--pairs", "consecutive"];
+    let from_binary = tool(&[&["log", &binary][..], &args, &QUICK].concat());
+    let from_hex = tool(&[&["log", &hex][..], &args, &QUICK].concat());
+    assert!(from_hex.status.success(), "{}", stderr(&from_hex));
+    assert_eq!(json_lines(&from_hex), json_lines(&from_binary));
+    let err = stderr(&from_hex);
+    assert!(err.contains("hex text, read as the bytes it spells"), "{err}");
+    assert!(err.contains("20 revolutions; dropped: 0 bad checksum"), "{err}");
+    // `wire` writes the same CARMEN log from either.
+    let logs: Vec<Vec<u8>> = [&binary, &hex]
+        .iter()
+        .map(|file| {
+            let out = tool(&["wire", "--protocol", "ld06", file, "--out", "-"]);
+            assert!(out.status.success(), "{}", stderr(&out));
+            out.stdout
+        })
+        .collect();
+    // The header names the capture read; the lines after it are the same.
+    let body = |log: &[u8]| -> Vec<String> {
+        String::from_utf8_lossy(log)
+            .lines()
+            .filter(|l| !l.starts_with('#'))
+            .map(str::to_owned)
+            .collect()
+    };
+    assert_eq!(body(&logs[0]), body(&logs[1]));
+    assert!(body(&logs[0]).iter().any(|l| l.starts_with("ROBOTLASER1")));
+}
+
+#[test]
+fn a_damaged_hex_text_capture_reads_up_to_the_damage_and_says_where() {
+    let file = hex_text_capture("ld06-hex-damaged.txt");
+    let mut text = std::fs::read_to_string(&file).unwrap();
+    // Line 901 (packet 900) gets a character that is not a hex digit.
+    let at = text.match_indices('\n').nth(899).unwrap().0 + 4;
+    text.replace_range(at..at + 1, "Q");
+    std::fs::write(&file, text).unwrap();
+    let out = tool(
+        &[
+            &["log", &file.display().to_string(), "--format", "ld06"][..],
+            &["--pairs", "consecutive"],
+            &QUICK,
+        ]
+        .concat(),
+    );
+    let err = stderr(&out);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("read error: hex text, line 901: 'Q' is not a hex digit"),
+        "{err}"
+    );
+    // Every packet before the damage is read (none after it), and the 900
+    // of 1231 hold 14 whole revolutions of the 20: 13 consecutive pairs.
+    assert!(err.contains("ld06: 900 packets"), "{err}");
+    assert!(err.contains("14 revolutions; dropped: 0 bad checksum"), "{err}");
+    assert_eq!(json_lines(&out).len(), 13, "{err}");
+}
+
+#[test]
+fn a_capture_without_its_format_is_refused_in_one_line_naming_it() {
+    let hex = hex_text_capture("ld06-hex-unnamed.txt").display().to_string();
+    for (file, what) in [(capture("ld06.bin"), "binary"), (hex, "hex text")] {
+        let out = tool(&["log", &file, "-q"]);
+        assert_eq!(out.status.code(), Some(2), "{file}");
+        let err = stderr(&out);
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.contains(&format!("{what}, not a CARMEN log")), "{err}");
+        assert!(err.contains("`--format ld06`"), "{err}");
+    }
+    // A CARMEN log given a capture's format is told so, not read as noise.
+    let log = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/logs/seattle-excerpt.log");
+    let out = tool(&["log", &log.display().to_string(), "--format", "ld06", "-q"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).contains("text but not hex text, not a raw ld06 capture"),
+        "{}",
+        stderr(&out)
+    );
+}

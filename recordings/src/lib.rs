@@ -24,6 +24,7 @@
 
 pub mod answer;
 pub mod bagdir;
+pub mod capture_file;
 pub mod carmen;
 pub mod chain_report;
 pub mod db3;

@@ -14,13 +14,15 @@ use crate::carmen::{CarmenReader, FlaserGeometry};
 use crate::error::Fatal;
 use crate::model::Event;
 use crate::wire::Protocol;
-use crate::{bagdir, db3, ros1, ros2};
+use crate::{bagdir, capture_file, db3, ros1, ros2};
 
 /// The format of a recording.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Format {
     /// By content: a directory is a ROS 2 bag, SQLite, MCAP and ROS 1 bags
-    /// are known by their first bytes, anything else is read as CARMEN.
+    /// are known by their first bytes, a binary or hex-text file is refused
+    /// with the capture `--format` its bytes look like, and anything else
+    /// is read as CARMEN.
     Auto,
     /// CARMEN log (`FLASER`, `ROBOTLASER1`, `ODOM` lines), plain or gzip.
     Carmen,
@@ -33,6 +35,8 @@ pub enum Format {
     /// files, read in the order it lists them) or one `.db3` file.
     Db3,
     /// Raw LDRobot LD06 / LD19 / STL-19P capture: one scan per revolution.
+    /// Each raw capture format reads the bytes as stored or hex text
+    /// ([`crate::capture_file`]).
     Ld06,
     /// Raw Slamtec RPLIDAR capture (standard scan): one scan per revolution.
     Rplidar,
@@ -137,7 +141,10 @@ pub fn open_recording(source: &Source, bar: &ProgressBar) -> Result<Opened, Fata
         (Format::Auto, None) if head.starts_with(db3::MAGIC) => Format::Db3,
         (Format::Auto, None) if head.starts_with(MCAP_MAGIC) => Format::Mcap,
         (Format::Auto, None) if head.starts_with(ros1::MAGIC) => Format::Ros1,
-        (Format::Auto, None) => Format::Carmen,
+        (Format::Auto, None) => match capture_file::unread_capture(&file, head) {
+            Some(message) => return Err(Fatal::usage(message)),
+            None => Format::Carmen,
+        },
         (f, _) => f,
     };
     let from_directory = directory.is_some();
@@ -164,7 +171,8 @@ pub fn open_recording(source: &Source, bar: &ProgressBar) -> Result<Opened, Fata
                 Format::Ydlidar => Protocol::Ydlidar,
                 _ => Protocol::Xv11,
             };
-            return Ok(Opened::Capture(protocol, input));
+            let bytes = capture_file::capture_bytes(input, &file, protocol)?;
+            return Ok(Opened::Capture(protocol, bytes));
         }
         Format::Db3 => {
             let topics = db3::topics(&files)?;
