@@ -19,7 +19,10 @@ pub struct Counters {
     pub packets: u32,
     /// Points in those packets.
     pub points: u32,
-    /// Candidate packets dropped because their checksum or CRC failed.
+    /// Candidate packets dropped because their checksum or CRC failed. This
+    /// and the next two count each damaged packet once: a candidate that
+    /// starts inside one already counted (a header its damaged bytes spell)
+    /// goes to [`skipped_bytes`](Self::skipped_bytes).
     pub bad_checksum: u32,
     /// Candidate packets dropped because a structural field is impossible:
     /// a sample count of 0 or above the protocol's maximum, a check bit
@@ -32,7 +35,8 @@ pub struct Counters {
     /// Response descriptors (`A5 5A …`) recognised and skipped.
     pub descriptors: u32,
     /// Bytes dropped outside any packet: noise, the tail of a rejected
-    /// candidate, a partial packet at the start of a stream.
+    /// candidate (and the first byte of a candidate inside it), a partial
+    /// packet at the start of a stream.
     pub skipped_bytes: u32,
     /// Bytes refused because the parser's buffer was full (only when
     /// [`Parser::push`](crate::Parser::push) is called without draining the
