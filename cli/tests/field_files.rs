@@ -2,7 +2,8 @@
 //! poses: `log` on the `laser_scan_matcher` demo bag (a ROS 1 bag in the
 //! layout older rosbag wrote) and the Olin ROS 2 SQLite bag (real data,
 //! skipped when `../shared/data` is absent, except on CI), and `--summary`
-//! on the bundled bags, which have odometry but no poses to score against.
+//! on the bundled bags, which have odometry but no poses to score against;
+//! the JSON lines' `flagged_by` on real pairs.
 
 mod common;
 
@@ -66,14 +67,28 @@ fn summary_without_reference_poses_reports_the_chain_and_its_odometry() {
         assert!(err.contains("no reference poses to score against"), "{err}");
         assert!(!err.contains("failed and are not counted"), "{err}");
         assert!(!err.contains("| subset |"), "{err}");
-        // The flags by kind, as the JSON lines give them.
+        // The flags by kind, as the JSON lines give them: the status, and
+        // how many of each the check on the beams flagged.
         let mut statuses = std::collections::BTreeMap::new();
         for line in json_lines(&o) {
-            *statuses
-                .entry(line["status"].as_str().unwrap().to_string())
-                .or_insert(0) += 1;
+            let status = line["status"].as_str().unwrap().to_string();
+            let flagged_by = line["flagged_by"].as_str();
+            assert_eq!(
+                flagged_by.is_none(),
+                status == "confident",
+                "a flag and its test go together: {line}"
+            );
+            let [all, by_beams] = statuses.entry(status).or_insert([0, 0]);
+            *all += 1;
+            *by_beams += usize::from(flagged_by == Some("beam_check"));
         }
-        let by_status: Vec<String> = statuses.iter().map(|(s, n)| format!("{s} {n}")).collect();
+        let by_status: Vec<String> = statuses
+            .iter()
+            .map(|(s, [n, b])| match b {
+                0 => format!("{s} {n}"),
+                _ => format!("{s} {n} ({b} flagged by the beam check)"),
+            })
+            .collect();
         assert!(
             err.contains(&format!(
                 "pairs by their estimate's status (the JSON lines' `status`): {}\n",
@@ -147,4 +162,47 @@ fn the_olin_bags_trajectory_carries_its_odometry() {
         err.contains("steps within 2° of the odometry's turn"),
         "{err}"
     );
+}
+
+/// `flagged_by` names the test that flagged a pair: on real pairs, a pair
+/// flagged by `beam_check` is confident when the check on the beams is off,
+/// and one flagged by `estimate` has the same status without the check.
+/// (Shared data: the first 100 pairs of two logs; skipped without them.)
+#[test]
+fn flagged_pairs_name_the_test_that_flagged_them() {
+    let mut seen = [0usize; 2];
+    for log in ["seattle", "aces"] {
+        let Some(pairs) = shared_data(&format!("{log}-corrected_pairs.jsonl")) else {
+            return;
+        };
+        let text = std::fs::read_to_string(pairs).unwrap();
+        let head: String = text.lines().take(100).map(|l| format!("{l}\n")).collect();
+        let file = scratch_file("field-files", &format!("{log}-head.jsonl"));
+        std::fs::write(&file, head).unwrap();
+        let name = file.display().to_string();
+        let with_check = json_lines(&tool(&["scans", &name]));
+        let without = json_lines(&tool(&["scans", &name, "--no-beam-check"]));
+        assert_eq!(with_check.len(), 100);
+        assert_eq!(without.len(), 100);
+        for (a, b) in with_check.iter().zip(&without) {
+            let (status, alone) = (a["status"].as_str(), b["status"].as_str());
+            match a["flagged_by"].as_str() {
+                None => assert_eq!(status, Some("confident"), "{a}"),
+                Some("beam_check") => {
+                    assert_eq!(alone, Some("confident"), "{a}");
+                    assert_ne!(status, Some("confident"), "{a}");
+                    seen[0] += 1;
+                }
+                Some("estimate") => {
+                    assert_eq!(status, alone, "{a}");
+                    assert_ne!(status, Some("confident"), "{a}");
+                    seen[1] += 1;
+                }
+                Some(other) => panic!("flagged_by {other}: {a}"),
+            }
+            assert!(b["flagged_by"] != "beam_check", "{b}");
+        }
+    }
+    // Both tests flag some of these pairs (measured: 6 and 22 of 200).
+    assert!(seen[0] > 0 && seen[1] > 0, "{seen:?}");
 }

@@ -5,7 +5,7 @@
 use hough_heading::{BeamCheck, BeamFit, BeamFitError, Candidate, Estimate, ScanStats, Score};
 use serde::Serialize;
 
-use crate::pairs::{round, status_name, wrap_deg, PairEstimate};
+use crate::pairs::{round, status_name, wrap_deg, FlaggedBy, PairEstimate};
 
 /// One output line.
 #[derive(Clone, Debug, Serialize)]
@@ -20,6 +20,13 @@ pub struct OutputLine {
     /// `confident`, `ambiguous_direction`, `ambiguous_axis`, `low_overlap`,
     /// `no_structure` or `error`.
     pub status: &'static str,
+    /// Which test flagged a status other than `confident` (absent when
+    /// confident or on error): `estimate` (the estimator's own: overlap on
+    /// the grid, direction, axis, structure, work budget) or `beam_check`
+    /// (the check on the beams, see `beam_check`: the estimator alone
+    /// called it confident).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub flagged_by: Option<&'static str>,
     /// In [0, 1] (null on error).
     pub confidence: Option<f64>,
     /// Candidate heading changes, strongest first, degrees.
@@ -251,6 +258,7 @@ impl OutputLine {
             index,
             dtheta_deg: Some(round(p.dtheta_deg, 4)),
             status: status_name(e.status),
+            flagged_by: p.flagged_by.map(FlaggedBy::name),
             confidence: Some(round(e.confidence.to_num::<f64>(), 4)),
             candidates_deg: e
                 .candidates
@@ -299,6 +307,7 @@ impl OutputLine {
             index,
             dtheta_deg: None,
             status: "error",
+            flagged_by: None,
             confidence: None,
             candidates_deg: Vec::new(),
             alignments: Vec::new(),

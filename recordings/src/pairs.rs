@@ -7,7 +7,7 @@
 
 use hough_heading::{
     Angle, BeamCheck, BeamFit, BeamFitError, Estimate, HalfTurn, Mode, Pose, Prior, Raster, Scan,
-    ScanStats, SensorOffset,
+    ScanStats, SensorOffset, Status,
 };
 use serde::Deserialize;
 
@@ -156,6 +156,30 @@ pub struct PairEstimate {
     pub beam_fit: Option<Result<BeamFit, BeamFitError>>,
     /// The candidates judged again on the beams, when that ran.
     pub beam_check: Option<BeamCheck>,
+    /// Which test flagged the answer, when its status is not confident.
+    pub flagged_by: Option<FlaggedBy>,
+}
+
+/// The test that made an answer's status other than confident.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FlaggedBy {
+    /// The estimator's own: overlap on the grid, the direction or axis
+    /// test, too little structure, the work budget.
+    Estimate,
+    /// The check on the beams ([`BeamCheck::flag`]): a rival that
+    /// contradicts the answer, an answer too weak on the beams, or a
+    /// confidence cap below ½. The estimator alone called it confident.
+    BeamCheck,
+}
+
+impl FlaggedBy {
+    /// The name in the JSON lines' `flagged_by`.
+    pub fn name(self) -> &'static str {
+        match self {
+            FlaggedBy::Estimate => "estimate",
+            FlaggedBy::BeamCheck => "beam_check",
+        }
+    }
 }
 
 /// Rasterizes both scans of `pair` into `engine` and estimates in each of
@@ -200,6 +224,7 @@ pub fn estimate_with_prior(
         .iter()
         .map(|&mode| {
             let mut estimate = engine.estimate_with_prior(mode, prior);
+            let estimator_status = estimate.status;
             // The check first: it may replace the answer, which is then
             // the one refined. With a prior it only flags (the prior chose),
             // and a rival the prior rules out contradicts nothing.
@@ -217,6 +242,11 @@ pub fn estimate_with_prior(
                 .translation
                 .filter(|_| options.beam_refine)
                 .map(|t| raster.refine_on_beams(&s1, &s2, estimate.alpha, &t));
+            let flagged_by = match (estimator_status, estimate.status) {
+                (_, Status::Confident) => None,
+                (Status::Confident, _) => Some(FlaggedBy::BeamCheck),
+                _ => Some(FlaggedBy::Estimate),
+            };
             let (alpha, translation) = reported_pose(&estimate, beam_fit.as_ref());
             let motion = raster.motion(alpha, translation.as_ref());
             PairEstimate {
@@ -229,6 +259,7 @@ pub fn estimate_with_prior(
                 estimate,
                 beam_fit,
                 beam_check,
+                flagged_by,
             }
         })
         .collect())

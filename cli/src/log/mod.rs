@@ -182,7 +182,10 @@ pub fn run(args: &LogArgs) -> Result<usize, Fatal> {
         let statuses: Vec<String> = run
             .statuses
             .iter()
-            .map(|(status, n)| format!("{status} {n}"))
+            .map(|(status, &[n, by_beams])| match by_beams {
+                0 => format!("{status} {n}"),
+                _ => format!("{status} {n} ({by_beams} flagged by the beam check)"),
+            })
             .collect();
         eprintln!(
             "pairs by their estimate's status (the JSON lines' `status`): {}",

@@ -11,7 +11,7 @@ use hough_heading::{Angle, Mode, Prior};
 use hough_heading_recordings::engine::Engine;
 use hough_heading_recordings::line::OutputLine;
 use hough_heading_recordings::model::{Event, Pose};
-use hough_heading_recordings::pairs::{self as scans, Check, PairRecord, RasterOptions, Truth};
+use hough_heading_recordings::pairs::{self as scans, Check, FlaggedBy, PairRecord, RasterOptions, Truth};
 use hough_heading_recordings::trajectory::{Kept, Trajectory};
 use hough_heading_recordings::{Fatal, RecordError};
 use indicatif::ProgressBar;
@@ -119,8 +119,9 @@ pub(super) struct Run<'a> {
     pub(super) failed: usize,
     pub(super) summary: Summary,
     /// The pairs' statuses (the output line's `status`), counted for
-    /// `--summary` on a recording without reference poses.
-    pub(super) statuses: std::collections::BTreeMap<&'static str, usize>,
+    /// `--summary` on a recording without reference poses: all, and those
+    /// flagged by the check on the beams (`flagged_by`).
+    pub(super) statuses: std::collections::BTreeMap<&'static str, [usize; 2]>,
     /// Beams without a reading in the file (NaN, inf, below `range_min`)
     /// and the scans that had any, over the scans read.
     pub(super) missing_readings: MissingReadings,
@@ -241,7 +242,9 @@ impl Run<'_> {
         let line = match &result {
             Ok(estimates) => {
                 let line = OutputLine::of(index, &estimates[0]);
-                *self.statuses.entry(line.status).or_default() += 1;
+                let [all, by_beams] = self.statuses.entry(line.status).or_default();
+                *all += 1;
+                *by_beams += usize::from(line.flagged_by == Some(FlaggedBy::BeamCheck.name()));
                 line
             }
             Err(message) => {

@@ -691,7 +691,8 @@ def estimate_scans(
     (positive = turned left; the scene turns by ``alpha = −dtheta``),
     ``(dx_m, dy_m)`` its displacement in the robot frame of scan 1 (the
     pose of scan 2 in the frame of scan 1, as the pair files'
-    ``dx, dy, dtheta``), ``status``, ``confidence``, ``candidates_deg`` with
+    ``dx, dy, dtheta``), ``status`` (with ``flagged_by``, ``"estimate"`` or
+    ``"beam_check"``, when it is not ``"confident"``), ``confidence``, ``candidates_deg`` with
     their ``alignments``, ``overlap``, ``correlation``, ``rival``,
     ``cell_m``, ``residual_m``, ``columns``, ``unobservable``, ``dropped``,
     ``beam_check``, ``beam_fit``. ``dtheta_deg``, ``dx_m`` and ``dy_m`` are
