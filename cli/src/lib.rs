@@ -74,8 +74,13 @@ pub enum Command {
     /// Motion between the scans of a recording: a CARMEN log (`.gz` too), a
     /// ROS 1 bag or a ROS 2 bag (MCAP or SQLite); one JSON line per scan pair.
     Log(Box<log::LogArgs>),
-    /// A raw lidar capture (LD06, RPLIDAR, YDLIDAR bytes) as a CARMEN log,
-    /// one `ROBOTLASER1` line per revolution.
+    /// A raw lidar capture (LD06, RPLIDAR, YDLIDAR, XV-11; bytes or hex text)
+    /// as a CARMEN log, one `ROBOTLASER1` line per revolution.
+    ///
+    /// The robot's pose is written as unknown (`PARAM hough_heading_odometry
+    /// none`); the times are each revolution's own (LD06 stamps, XV-11
+    /// motor periods) or, for captures without a clock, the index with
+    /// `PARAM hough_heading_clock none`. A failed run writes no file.
     Wire(wire::WireArgs),
     /// One scan of a pair file as a stored scan reference for the firmware
     /// (`ScanReference` bytes: the reference, its free space, raster and
