@@ -10,11 +10,11 @@ use std::io::{BufWriter, Read, Write};
 use std::path::PathBuf;
 
 use clap::Args;
-use indicatif::ProgressBar;
 use hough_heading_recordings::capture_file::capture_bytes;
 use hough_heading_recordings::open::open;
 use hough_heading_recordings::wire::{Protocol, WireReader, BINS};
 use hough_heading_recordings::Fatal;
+use indicatif::ProgressBar;
 
 /// `wire --protocol P CAPTURE --out LOG`.
 #[derive(Clone, Debug, Args)]

@@ -308,8 +308,14 @@ fn hex_text_captures_are_read_as_the_bytes_they_spell() {
     assert!(from_hex.status.success(), "{}", stderr(&from_hex));
     assert_eq!(json_lines(&from_hex), json_lines(&from_binary));
     let err = stderr(&from_hex);
-    assert!(err.contains("hex text, read as the bytes it spells"), "{err}");
-    assert!(err.contains("20 revolutions; dropped: 0 bad checksum"), "{err}");
+    assert!(
+        err.contains("hex text, read as the bytes it spells"),
+        "{err}"
+    );
+    assert!(
+        err.contains("20 revolutions; dropped: 0 bad checksum"),
+        "{err}"
+    );
     // `wire` writes the same CARMEN log from either.
     let logs: Vec<Vec<u8>> = [&binary, &hex]
         .iter()
@@ -356,13 +362,18 @@ fn a_damaged_hex_text_capture_reads_up_to_the_damage_and_says_where() {
     // Every packet before the damage is read (none after it), and the 900
     // of 1231 hold 14 whole revolutions of the 20: 13 consecutive pairs.
     assert!(err.contains("ld06: 900 packets"), "{err}");
-    assert!(err.contains("14 revolutions; dropped: 0 bad checksum"), "{err}");
+    assert!(
+        err.contains("14 revolutions; dropped: 0 bad checksum"),
+        "{err}"
+    );
     assert_eq!(json_lines(&out).len(), 13, "{err}");
 }
 
 #[test]
 fn a_capture_without_its_format_is_refused_in_one_line_naming_it() {
-    let hex = hex_text_capture("ld06-hex-unnamed.txt").display().to_string();
+    let hex = hex_text_capture("ld06-hex-unnamed.txt")
+        .display()
+        .to_string();
     for (file, what) in [(capture("ld06.bin"), "binary"), (hex, "hex text")] {
         let out = tool(&["log", &file, "-q"]);
         assert_eq!(out.status.code(), Some(2), "{file}");

@@ -265,7 +265,11 @@ fn a_damaged_packet_that_spells_a_header_is_counted_once() {
             assert_eq!(c.dropped_packets(), 1, "{what}: {c:?}");
             assert_eq!(c.skipped_bytes as usize, r.len() - 1, "{what}: {c:?}");
         }
-        assert!(chance <= TRIALS / 20, "{}: {chance} checks passed by chance", p.name);
+        assert!(
+            chance <= TRIALS / 20,
+            "{}: {chance} checks passed by chance",
+            p.name
+        );
     }
 }
 

@@ -115,7 +115,10 @@ pub fn likely_protocol(head: &[u8]) -> Option<Protocol> {
     [
         (Protocol::Ld06, count(|w| w == [0x54, 0x2C])),
         (Protocol::Ydlidar, count(|w| w == [0xAA, 0x55])),
-        (Protocol::Xv11, count(|w| w[0] == 0xFA && (0xA0..=0xF9).contains(&w[1]))),
+        (
+            Protocol::Xv11,
+            count(|w| w[0] == 0xFA && (0xA0..=0xF9).contains(&w[1])),
+        ),
     ]
     .into_iter()
     .filter(|&(_, n)| n >= 8)
@@ -171,7 +174,10 @@ impl Decoder {
             (self.high, self.lone_zero, self.in_token) = (None, false, false);
             return Ok(None);
         }
-        let Some(nibble) = char::from(c).to_digit(16).and_then(|d| u8::try_from(d).ok()) else {
+        let Some(nibble) = char::from(c)
+            .to_digit(16)
+            .and_then(|d| u8::try_from(d).ok())
+        else {
             return Err(self.invalid(&format!("{:?} is not a hex digit", char::from(c))));
         };
         self.lone_zero = !self.in_token && nibble == 0;
@@ -313,24 +319,44 @@ mod tests {
     fn a_capture_given_without_format_is_named_with_its_likely_format() {
         let packets: Vec<u8> = (0..20u8).flat_map(|i| [0x54, 0x2C, i, 0, 1, 2]).collect();
         let binary = unread_capture("c.bin", &packets).unwrap();
-        assert!(binary.starts_with("c.bin: binary, not a CARMEN log"), "{binary}");
+        assert!(
+            binary.starts_with("c.bin: binary, not a CARMEN log"),
+            "{binary}"
+        );
         assert!(binary.contains("`--format ld06`"), "{binary}");
         let text: String = packets.iter().map(|b| format!("{b:02X} ")).collect();
         let hex = unread_capture("c.txt", text.as_bytes()).unwrap();
         assert!(hex.starts_with("c.txt: hex text, not"), "{hex}");
         assert!(hex.contains("`--format ld06`"), "{hex}");
-        assert_eq!(unread_capture("l.log", b"ODOM 1 2 3 0 0 0 1.0 host 1.0\n"), None);
+        assert_eq!(
+            unread_capture("l.log", b"ODOM 1 2 3 0 0 0 1.0 host 1.0\n"),
+            None
+        );
     }
 
     #[test]
     fn the_likely_protocol_is_the_one_whose_headers_recur() {
         let packets = |header: [u8; 2], n: usize| -> Vec<u8> {
-            (0..n).flat_map(|i| [header[0], header[1], i as u8, 7, 9]).collect()
+            (0..n)
+                .flat_map(|i| [header[0], header[1], i as u8, 7, 9])
+                .collect()
         };
-        assert_eq!(likely_protocol(&packets([0x54, 0x2C], 20)), Some(Protocol::Ld06));
-        assert_eq!(likely_protocol(&packets([0xAA, 0x55], 20)), Some(Protocol::Ydlidar));
-        assert_eq!(likely_protocol(&packets([0xFA, 0xB0], 20)), Some(Protocol::Xv11));
-        assert_eq!(likely_protocol(&[0xA5, 0x5A, 5, 0, 0, 0x40, 0x81]), Some(Protocol::Rplidar));
+        assert_eq!(
+            likely_protocol(&packets([0x54, 0x2C], 20)),
+            Some(Protocol::Ld06)
+        );
+        assert_eq!(
+            likely_protocol(&packets([0xAA, 0x55], 20)),
+            Some(Protocol::Ydlidar)
+        );
+        assert_eq!(
+            likely_protocol(&packets([0xFA, 0xB0], 20)),
+            Some(Protocol::Xv11)
+        );
+        assert_eq!(
+            likely_protocol(&[0xA5, 0x5A, 5, 0, 0, 0x40, 0x81]),
+            Some(Protocol::Rplidar)
+        );
         assert_eq!(likely_protocol(&packets([0x54, 0x2C], 3)), None);
         assert_eq!(likely_protocol(&[1, 2, 3, 4, 5, 6]), None);
     }

@@ -11,7 +11,9 @@ use hough_heading::{Angle, Mode, Prior};
 use hough_heading_recordings::engine::Engine;
 use hough_heading_recordings::line::OutputLine;
 use hough_heading_recordings::model::{Event, Pose};
-use hough_heading_recordings::pairs::{self as scans, Check, FlaggedBy, PairRecord, RasterOptions, Truth};
+use hough_heading_recordings::pairs::{
+    self as scans, Check, FlaggedBy, PairRecord, RasterOptions, Truth,
+};
 use hough_heading_recordings::trajectory::{Kept, Trajectory};
 use hough_heading_recordings::{Fatal, RecordError};
 use indicatif::ProgressBar;
