@@ -58,8 +58,8 @@ pub struct Source {
     pub format: Format,
     /// Bags: the `LaserScan` topic (without it, the bag's only one).
     pub topic: Option<String>,
-    /// Bags: the `Odometry` topic (default `/odom` when the bag has it, else a
-    /// ROS 2 bag's `/tf`: its `odom` → `base_link` transform).
+    /// Bags: the `Odometry` topic (default `/odom` when the bag has it, else
+    /// the bag's `/tf`: its `odom` → `base_link` transform).
     pub odom_topic: Option<String>,
     /// CARMEN `FLASER`: "no return" at or beyond this, metres.
     pub max_range: f32,
@@ -280,9 +280,9 @@ pub struct BagTypes {
     pub scan: &'static [&'static str],
     /// The odometry's type.
     pub odometry: &'static str,
-    /// The transforms' type, read as odometry when the bag has no `/odom`
-    /// (ROS 2: [`crate::tf`]).
-    pub transforms: Option<&'static str>,
+    /// The transforms' types, read as odometry when the bag has no `/odom`
+    /// ([`crate::tf`]).
+    pub transforms: &'static [&'static str],
 }
 
 impl BagTypes {
@@ -290,19 +290,19 @@ impl BagTypes {
     pub const ROS2: Self = Self {
         scan: &[ros2::LASER_SCAN],
         odometry: ros2::ODOMETRY,
-        transforms: Some(crate::tf::TF_MESSAGE),
+        transforms: &[crate::tf::TF_MESSAGE],
     };
     /// ROS 1.
     pub const ROS1: Self = Self {
         scan: &[ros1::LASER_SCAN, ros1::MULTI_ECHO_SCAN],
         odometry: ros1::ODOMETRY,
-        transforms: None,
+        transforms: &ros1::TRANSFORMS,
     };
 }
 
 /// The scan topic (`--topic`, or the bag's only scan topic) and the
 /// odometry topic (`--odom-topic`, or `/odom` when it carries odometry, else
-/// `/tf` in a ROS 2 bag) of a bag whose `topics` were listed.
+/// `/tf` when it carries transforms) of a bag whose `topics` were listed.
 ///
 /// # Errors
 /// A usage error listing the bag's topics when the scan topic is missing,
@@ -331,7 +331,7 @@ pub fn choose_topics(
     // A scan topic of another type fails at its first message (named).
     let odom = match &args.odom_topic {
         Some(t) => match topics.get(t) {
-            Some(i) if i.schema == types.odometry || types.transforms == Some(&i.schema) => {
+            Some(i) if i.schema == types.odometry || types.transforms.contains(&&*i.schema) => {
                 Some(t.clone())
             }
             Some(i) => {
@@ -348,7 +348,7 @@ pub fn choose_topics(
                 .find(|(t, i)| t.as_str() == "/odom" && i.schema == types.odometry);
             let tf = topics
                 .iter()
-                .find(|(t, i)| t.as_str() == "/tf" && types.transforms == Some(&i.schema));
+                .find(|(t, i)| t.as_str() == "/tf" && types.transforms.contains(&&*i.schema));
             if let (None, Some((t, _))) = (odom, tf) {
                 eprintln!("hough-heading: {file}: odometry from {t} (odom → base_link), the bag has no /odom");
             }

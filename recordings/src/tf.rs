@@ -1,21 +1,80 @@
-//! ROS 2 `tf2_msgs/msg/TFMessage` (`/tf`) as odometry, for bags without an
-//! `Odometry` topic: a message's transform from `odom` to `base_link` (or
-//! `base_footprint`; frame names without a leading `/`) is the robot's
-//! odometry pose, stamped by its header. A message without that transform
-//! (the other transforms of the tree) is no odometry and is passed over.
+//! `/tf` as odometry, for bags without an `Odometry` topic: a
+//! `TFMessage`'s transform from `odom` to `base_link` (or `base_footprint`;
+//! frame names without a leading `/`) is the robot's odometry pose, stamped
+//! by its header. A message without that transform (the other transforms of
+//! the tree) is no odometry and is passed over.
 //!
-//! The CDR payload is walked by hand (the `cdr` crate allocates a declared
-//! length before reading it): every count and string length is checked
-//! against the message before it is used.
+//! [`transforms_odometry`] walks a message by its serialization's
+//! [`TransformFields`]: ROS 2's CDR here (the `cdr` crate allocates a
+//! declared length before reading it), ROS 1's in [`crate::ros1`]. Every
+//! count and string length is checked against the message before it is
+//! used.
 
 use crate::model::Pose;
 use crate::ros2::{decode_odometry, odometry_item, odometry_pose, BagItem, ODOMETRY};
 
-/// The schema name of a transform message.
+/// The schema name of a ROS 2 transform message.
 pub const TF_MESSAGE: &str = "tf2_msgs/msg/TFMessage";
 /// The odometry frame, and the robot's frames it may move.
 const PARENT: &str = "odom";
 const CHILDREN: [&str; 2] = ["base_link", "base_footprint"];
+/// The fewest bytes a transform takes (stamp, two string lengths, seven
+/// `f64`; a ROS 1 header's `seq` is 4 more).
+const MIN_TRANSFORM: usize = 72;
+
+/// The fields of a `TFMessage` in one serialization.
+pub(crate) trait TransformFields<'a> {
+    /// The bytes left in the message.
+    fn left(&self) -> usize;
+    /// A `uint32`.
+    fn u32(&mut self) -> Result<u32, String>;
+    /// A `float64`.
+    fn f64(&mut self) -> Result<f64, String>;
+    /// A header up to its `frame_id`: its stamp, seconds.
+    fn stamp(&mut self) -> Result<f64, String>;
+    /// A string, without a NUL terminator.
+    fn string(&mut self) -> Result<&'a [u8], String>;
+}
+
+/// Whether a transform from `parent` to `child` (frame names, a leading
+/// `/` ignored) moves the robot in the odometry frame.
+fn is_odometry_transform(parent: &[u8], child: &[u8]) -> bool {
+    fn frame(name: &[u8]) -> &[u8] {
+        name.strip_prefix(b"/").unwrap_or(name)
+    }
+    frame(parent) == PARENT.as_bytes() && CHILDREN.iter().any(|c| c.as_bytes() == frame(child))
+}
+
+/// The odometry pose and stamp (s) of a `TFMessage` read by `m`, `None`
+/// when it holds no `odom` → robot transform (the last one when it holds
+/// several).
+///
+/// # Errors
+/// A message that is not a whole `TFMessage`, or a non-finite odometry
+/// pose.
+pub(crate) fn transforms_odometry<'a>(
+    m: &mut impl TransformFields<'a>,
+) -> Result<Option<(Pose, f64)>, String> {
+    let count = m.u32()? as usize;
+    if count.saturating_mul(MIN_TRANSFORM) > m.left() {
+        return Err(format!("{count} transforms do not fit in the message"));
+    }
+    let mut found = None;
+    for _ in 0..count {
+        let stamp = m.stamp()?;
+        let parent = m.string()?;
+        let child = m.string()?;
+        let mut v = [0.0; 7];
+        for x in &mut v {
+            *x = m.f64()?;
+        }
+        if is_odometry_transform(parent, child) {
+            let pose = odometry_pose((v[0], v[1]), [v[3], v[4], v[5], v[6]])?;
+            found = Some((pose, stamp));
+        }
+    }
+    Ok(found)
+}
 
 /// A CDR message being read: offsets relative to the body (after the
 /// 4-byte encapsulation header), values aligned to their size.
@@ -34,6 +93,12 @@ impl<'a> Cdr<'a> {
             .ok_or("truncated message")?;
         self.at = at + n;
         Ok(bytes)
+    }
+}
+
+impl<'a> TransformFields<'a> for Cdr<'a> {
+    fn left(&self) -> usize {
+        self.body.len().saturating_sub(self.at)
     }
 
     fn u32(&mut self) -> Result<u32, String> {
@@ -54,51 +119,34 @@ impl<'a> Cdr<'a> {
         })
     }
 
-    /// A string (its NUL and any leading `/` dropped).
+    /// `builtin_interfaces/Time`: `int32` seconds, `uint32` nanoseconds.
+    fn stamp(&mut self) -> Result<f64, String> {
+        let sec = self.u32()? as i32;
+        let nanosec = self.u32()?;
+        Ok(f64::from(sec) + f64::from(nanosec) * 1e-9)
+    }
+
     fn string(&mut self) -> Result<&'a [u8], String> {
         let len = self.u32()? as usize;
         let bytes = self
             .take(len, 1)
             .map_err(|_| format!("a string of {len} bytes does not fit in the message"))?;
-        let text = bytes.strip_suffix(&[0]).unwrap_or(bytes);
-        Ok(text.strip_prefix(b"/").unwrap_or(text))
+        Ok(bytes.strip_suffix(&[0]).unwrap_or(bytes))
     }
 }
 
-/// The odometry pose and stamp (s) of a `TFMessage`, `None` when it holds
-/// no `odom` → robot transform (the last one when it holds several).
+/// The odometry pose and stamp (s) of a ROS 2 `TFMessage` (CDR), `None`
+/// when it holds no `odom` → robot transform ([`transforms_odometry`]).
 ///
 /// # Errors
 /// A message that is not a whole `TFMessage` in CDR.
 pub fn decode_tf_odometry(data: &[u8]) -> Result<Option<(Pose, f64)>, String> {
     let body = data.get(4..).ok_or("shorter than the CDR header")?;
-    let mut m = Cdr {
+    transforms_odometry(&mut Cdr {
         body,
         at: 0,
         little: data.get(1).is_some_and(|b| b & 1 == 1),
-    };
-    let count = m.u32()? as usize;
-    // Each transform takes at least 72 bytes (stamp, two string lengths,
-    // seven f64).
-    if count.saturating_mul(72) > body.len() {
-        return Err(format!("{count} transforms do not fit in the message"));
-    }
-    let mut found = None;
-    for _ in 0..count {
-        let sec = m.u32()? as i32;
-        let nanosec = m.u32()?;
-        let parent = m.string()?;
-        let child = m.string()?;
-        let mut v = [0.0; 7];
-        for x in &mut v {
-            *x = m.f64()?;
-        }
-        if parent == PARENT.as_bytes() && CHILDREN.iter().any(|c| c.as_bytes() == child) {
-            let pose = odometry_pose((v[0], v[1]), [v[3], v[4], v[5], v[6]])?;
-            found = Some((pose, f64::from(sec) + f64::from(nanosec) * 1e-9));
-        }
-    }
-    Ok(found)
+    })
 }
 
 /// Whether `schema` is an odometry the ROS 2 readers read: `Odometry` or

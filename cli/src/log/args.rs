@@ -79,8 +79,8 @@ pub struct LogArgs {
     /// bag's topics are listed).
     #[arg(long)]
     pub topic: Option<String>,
-    /// Bags: the `Odometry` topic (default `/odom` when the bag has it, else a
-    /// ROS 2 bag's `/tf`: its `odom` → `base_link` transform).
+    /// Bags: the `Odometry` topic (default `/odom` when the bag has it, else
+    /// the bag's `/tf`: its `odom` → `base_link` transform).
     #[arg(long, value_name = "TOPIC")]
     pub odom_topic: Option<String>,
     /// Which pairs.

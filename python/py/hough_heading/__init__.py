@@ -900,7 +900,8 @@ def read_log(
     ROS 1 bags by their first bytes; otherwise CARMEN), ``'carmen'``,
     ``'mcap'``, ``'db3'`` or ``'ros1'``. ``topic``: the bag's scan topic (default:
     its only ``LaserScan`` topic; with several, ``ValueError`` lists them).
-    ``odom_topic``: default ``/odom`` when the bag has it. ``max_range``
+    ``odom_topic``: default ``/odom`` when the bag has it, else its ``/tf``
+    (the ``odom`` → ``base_link`` transform). ``max_range``
     and ``laser_offset = (x, y, theta)``: for CARMEN ``FLASER`` lines, which
     carry neither (``laser_offset`` also overrides a bag's).
 

@@ -1,11 +1,13 @@
 //! The payloads of a ROS 1 bag's messages: `sensor_msgs/LaserScan`,
-//! `sensor_msgs/MultiEchoLaserScan` (each beam's first echo) and
-//! `nav_msgs/Odometry`, in the ROS 1 serialization (little-endian; strings
+//! `sensor_msgs/MultiEchoLaserScan` (each beam's first echo),
+//! `nav_msgs/Odometry` and `tf2_msgs/TFMessage` (its odometry transform,
+//! [`crate::tf`]), in the ROS 1 serialization (little-endian; strings
 //! and arrays a u32 length, then the items), decoded by hand with every
 //! length checked against the message.
 
 use crate::model::{Pose, Scan};
 use crate::ros2::{odometry_pose, scan_of, LaserFields};
+use crate::tf::{transforms_odometry, TransformFields};
 
 /// A ROS 1 message being read: every length checked against the payload.
 struct Payload<'a> {
@@ -38,20 +40,25 @@ impl<'a> Payload<'a> {
         ))
     }
 
-    fn string(&mut self) -> Result<(), String> {
+    fn string(&mut self) -> Result<&'a [u8], String> {
         let len = self.u32()? as usize;
         self.take(len)
-            .map(|_| ())
             .map_err(|_| format!("a string of {len} bytes does not fit in the message"))
+    }
+
+    /// `std_msgs/Header` up to its `frame_id`: its stamp, seconds.
+    fn stamp(&mut self) -> Result<f64, String> {
+        let _seq = self.u32()?;
+        let secs = self.u32()?;
+        let nsecs = self.u32()?;
+        Ok(f64::from(secs) + f64::from(nsecs) * 1e-9)
     }
 
     /// `std_msgs/Header`: its stamp, seconds.
     fn header(&mut self) -> Result<f64, String> {
-        let _seq = self.u32()?;
-        let secs = self.u32()?;
-        let nsecs = self.u32()?;
+        let stamp = self.stamp()?;
         self.string()?;
-        Ok(f64::from(secs) + f64::from(nsecs) * 1e-9)
+        Ok(stamp)
     }
 
     fn f32_array(&mut self) -> Result<Vec<f32>, String> {
@@ -65,6 +72,28 @@ impl<'a> Payload<'a> {
             .chunks_exact(4)
             .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
             .collect())
+    }
+}
+
+impl<'a> TransformFields<'a> for Payload<'a> {
+    fn left(&self) -> usize {
+        self.data.len()
+    }
+
+    fn u32(&mut self) -> Result<u32, String> {
+        Payload::u32(self)
+    }
+
+    fn f64(&mut self) -> Result<f64, String> {
+        Payload::f64(self)
+    }
+
+    fn stamp(&mut self) -> Result<f64, String> {
+        Payload::stamp(self)
+    }
+
+    fn string(&mut self) -> Result<&'a [u8], String> {
+        Payload::string(self)
     }
 }
 
@@ -123,4 +152,10 @@ pub(super) fn decode_odometry(data: &[u8]) -> Result<(Pose, f64), String> {
     let (x, y, _z) = (p.f64()?, p.f64()?, p.f64()?);
     let q = [p.f64()?, p.f64()?, p.f64()?, p.f64()?];
     Ok((odometry_pose((x, y), q)?, time))
+}
+
+/// The odometry pose and stamp of a `tf2_msgs/TFMessage` (or
+/// `tf/tfMessage`), `None` when it holds no `odom` → robot transform.
+pub(super) fn decode_tf_odometry(data: &[u8]) -> Result<Option<(Pose, f64)>, String> {
+    transforms_odometry(&mut Payload { data })
 }

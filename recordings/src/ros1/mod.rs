@@ -1,6 +1,8 @@
 //! ROS 1 bags (format 2.0): `sensor_msgs/LaserScan` (or
 //! `sensor_msgs/MultiEchoLaserScan`, each beam's first echo) messages of one
-//! topic, and `nav_msgs/Odometry` as the odometry.
+//! topic, and `nav_msgs/Odometry` as the odometry, or, in a bag without
+//! `/odom`, `/tf`'s `odom` → `base_link` transform (`tf2_msgs/TFMessage` or
+//! the older `tf/tfMessage`, [`crate::tf`]).
 //!
 //! The file is read front to back, twice: [`contents`] lists its topics and
 //! connections (wherever their records are), then [`BagReader`] streams the
@@ -12,7 +14,7 @@
 //! Ranges follow REP 117 as for ROS 2 bags ([`crate::ros2`]). A scan's time
 //! is its header stamp (the record time when the stamp is zero); its
 //! odometry the last odometry message before it in the file. The laser's
-//! offset on the robot is `--laser-offset` (`/tf` is not read).
+//! offset on the robot is `--laser-offset` (not read from `/tf`).
 
 mod decode;
 pub mod records;
@@ -24,7 +26,7 @@ use std::io::Read;
 
 use crate::error::{Fatal, RecordError};
 use crate::ros2::{odometry_item, scan_item, BagItem, TopicInfo};
-use decode::{decode_multi_echo, decode_odometry, decode_scan};
+use decode::{decode_multi_echo, decode_odometry, decode_scan, decode_tf_odometry};
 pub use records::{Connection, Messages, MAGIC, RECORD_LIMIT};
 
 /// The message type of a laser scan.
@@ -34,11 +36,25 @@ pub const LASER_SCAN: &str = "sensor_msgs/LaserScan";
 pub const MULTI_ECHO_SCAN: &str = "sensor_msgs/MultiEchoLaserScan";
 /// The message type of an odometry message.
 pub const ODOMETRY: &str = "nav_msgs/Odometry";
-/// MD5 sums of the two messages' definitions (a connection that gives
-/// another sum has another layout and is refused).
+/// The message type of a transform message (`/tf`).
+pub const TF_MESSAGE: &str = "tf2_msgs/TFMessage";
+/// The message type of a transform message before `tf2` (the same layout).
+pub const TF_MESSAGE_OLD: &str = "tf/tfMessage";
+/// The transforms' message types, read as odometry ([`crate::tf`]).
+pub const TRANSFORMS: [&str; 2] = [TF_MESSAGE, TF_MESSAGE_OLD];
+/// MD5 sums of the messages' definitions (a connection that gives another
+/// sum has another layout and is refused).
 const LASER_SCAN_MD5: &str = "90c7ef2dc6895d81024acba2ac42f369";
 const MULTI_ECHO_SCAN_MD5: &str = "6fefb0c6da89d7c8abe4b339f5c2f8fb";
 const ODOMETRY_MD5: &str = "cd5e73d190d741a2f92e81eda573aca7";
+const TF_MESSAGE_MD5: &str = "94810edda583a504dfda3829e70d7eec";
+/// The odometry's types and their sums (the first when a connection is of
+/// none of them).
+const ODOMETRY_TYPES: [(&str, &str); 3] = [
+    (ODOMETRY, ODOMETRY_MD5),
+    (TF_MESSAGE, TF_MESSAGE_MD5),
+    (TF_MESSAGE_OLD, TF_MESSAGE_MD5),
+];
 
 /// What one pass over a bag found: its topics with messages, and every
 /// connection declared anywhere in it.
@@ -92,7 +108,8 @@ pub struct BagReader<R: Read> {
 }
 
 impl<R: Read> BagReader<R> {
-    /// A reader of `topic` (LaserScan) and `odom_topic` (Odometry).
+    /// A reader of `topic` (LaserScan) and `odom_topic` (Odometry or
+    /// TFMessage).
     pub fn new(input: R, file: &str, topic: &str, odom_topic: Option<&str>) -> Self {
         Self {
             messages: Messages::new(input),
@@ -146,7 +163,10 @@ impl<R: Read> Iterator for BagReader<R> {
             let (expected, md5) = match (is_scan, multi_echo) {
                 (true, true) => (MULTI_ECHO_SCAN, MULTI_ECHO_SCAN_MD5),
                 (true, false) => (LASER_SCAN, LASER_SCAN_MD5),
-                _ => (ODOMETRY, ODOMETRY_MD5),
+                _ => ODOMETRY_TYPES
+                    .into_iter()
+                    .find(|(t, _)| *t == c.msg_type)
+                    .unwrap_or(ODOMETRY_TYPES[0]),
             };
             if c.msg_type != expected || !(c.md5sum.is_empty() || c.md5sum == md5) {
                 let fatal = Fatal::io(format!(
@@ -169,11 +189,18 @@ impl<R: Read> Iterator for BagReader<R> {
                 };
                 return Some(scan_item(decoded, message.time, named));
             }
-            return Some(odometry_item(
-                decode_odometry(&message.data),
-                message.time,
-                named,
-            ));
+            if expected == ODOMETRY {
+                return Some(odometry_item(
+                    decode_odometry(&message.data),
+                    message.time,
+                    named,
+                ));
+            }
+            // A transform message without the odometry's transform is passed
+            // over.
+            if let Some(decoded) = decode_tf_odometry(&message.data).transpose() {
+                return Some(odometry_item(decoded, message.time, named));
+            }
         }
     }
 }

@@ -5,10 +5,10 @@
 use std::collections::HashMap;
 use std::io::Write;
 
-use super::decode::{decode_multi_echo, decode_odometry, decode_scan};
+use super::decode::{decode_multi_echo, decode_odometry, decode_scan, decode_tf_odometry};
 use super::*;
-use crate::model::Event;
-use crate::open::{damaged, xorshift};
+use crate::model::{wrap_rad, Event};
+use crate::open::{choose_topics, damaged, xorshift, BagTypes, Format, Source};
 
 const BAG: &[u8] = include_bytes!("../../../cli/data/logs/seattle-bag.bag");
 const LZ4: &[u8] = include_bytes!("../../../cli/data/logs/seattle-bag-lz4.bag");
@@ -176,10 +176,13 @@ struct Written {
     data: Vec<u8>,
 }
 
-/// The connections of the written bags: id, topic, type, md5sum.
-const CONNECTIONS: [(u32, &str, &str, &str); 2] = [
+/// The connections of the written bags: id, topic, type, md5sum (`/tf`
+/// in either transform type; a bag has messages on one of them).
+const CONNECTIONS: [(u32, &str, &str, &str); 4] = [
     (0, "/scan", LASER_SCAN, LASER_SCAN_MD5),
     (1, "/odom", ODOMETRY, ODOMETRY_MD5),
+    (2, "/tf", TF_MESSAGE, TF_MESSAGE_MD5),
+    (3, "/tf", TF_MESSAGE_OLD, TF_MESSAGE_MD5),
 ];
 
 fn connection_record(id: u32) -> Vec<u8> {
@@ -545,4 +548,196 @@ fn a_message_on_an_undeclared_connection_is_a_failed_record() {
         assert!(error.message.contains("no record of the bag declares"));
     }
     assert_eq!(read_events(&bag).len(), 6);
+}
+
+// ---------------------------------------------------------------------------
+// `/tf` as the odometry.
+
+/// A `tf2_msgs/TFMessage` of `(parent, child, x, y, yaw)` transforms
+/// stamped `stamp`.
+fn tf_message(stamp: (u32, u32), transforms: &[(&str, &str, f64, f64, f64)]) -> Vec<u8> {
+    let mut out = (transforms.len() as u32).to_le_bytes().to_vec();
+    for (seq, &(parent, child, x, y, yaw)) in (0..).zip(transforms) {
+        out.extend(ros_header(seq, stamp, parent));
+        out.extend((child.len() as u32).to_le_bytes());
+        out.extend_from_slice(child.as_bytes());
+        let (s, c) = (yaw / 2.0).sin_cos();
+        for v in [x, y, 0.0, 0.0, 0.0, s, c] {
+            out.extend(v.to_le_bytes());
+        }
+    }
+    out
+}
+
+/// `messages` with each odometry message's pose, moved `shift` metres in
+/// `x`, also (`keep_odom`) or instead sent on `/tf` (connection `conn`)
+/// as ROS 1 names its frames, beside the laser's transform; after the
+/// third, a message without the odometry's transform.
+fn with_tf(messages: &[Written], conn: u32, keep_odom: bool, shift: f64) -> Vec<Written> {
+    let mut out = Vec::new();
+    for (i, m) in messages.iter().enumerate() {
+        if m.conn != 1 || keep_odom {
+            out.push(Written {
+                data: m.data.clone(),
+                ..*m
+            });
+        }
+        if m.conn != 1 {
+            continue;
+        }
+        let (p, _) = decode_odometry(&m.data).unwrap();
+        let transforms = [
+            ("/base_link", "/laser", 0.2, 0.0, 0.0),
+            ("/odom", "/base_link", p.x + shift, p.y, p.theta),
+        ];
+        let data = tf_message(m.time, &transforms);
+        out.push(Written { conn, data, ..*m });
+        if i == 4 {
+            let data = tf_message(m.time, &[("/map", "/odom", 1.0, 2.0, 3.0)]);
+            out.push(Written { conn, data, ..*m });
+        }
+    }
+    out
+}
+
+/// The topics `log` chooses in `bag` (`/scan` and `odom_topic`, or the
+/// default) and the items of reading them.
+fn read_chosen(bag: &[u8], odom_topic: Option<&str>) -> (Option<String>, Vec<BagItem>) {
+    let contents = contents(bag, "bag").expect("a readable bag");
+    let source = Source {
+        file: "bag".into(),
+        format: Format::Ros1,
+        topic: Some("/scan".into()),
+        odom_topic: odom_topic.map(Into::into),
+        max_range: 50.0,
+        laser_offset: None,
+    };
+    let (topic, odom) = choose_topics(&source, "bag", &contents.topics, BagTypes::ROS1).unwrap();
+    let items = BagReader::new(bag, "bag", &topic, odom.as_deref())
+        .knowing(&contents)
+        .collect();
+    (odom, items)
+}
+
+/// The events of `items`, none failed.
+fn events_of(items: Vec<BagItem>) -> Vec<Event> {
+    items
+        .into_iter()
+        .map(|item| item.expect("no fatal error").expect("no failed record"))
+        .collect()
+}
+
+/// The odometry poses and times of `events`, each beside the scans'
+/// times, the same to 1e-9.
+fn assert_same_odometry(a: &[Event], b: &[Event], shift: f64) {
+    assert_eq!(summary(a), summary(b));
+    for (a, b) in a.iter().zip(b) {
+        if let (Event::Odometry(a), Event::Odometry(b)) = (a, b) {
+            assert!((a.pose.x + shift - b.pose.x).abs() < 1e-9, "{a:?} {b:?}");
+            assert!((a.pose.y - b.pose.y).abs() < 1e-9, "{a:?} {b:?}");
+            assert!(wrap_rad(a.pose.theta - b.pose.theta).abs() < 1e-9);
+        }
+    }
+}
+
+const TF_LAYOUT: Layout = Layout {
+    per_chunk: 7,
+    compression: "lz4",
+    connections: Connections::BeforeFirstMessage,
+    index_entry: Some(12),
+    trailing_index: true,
+};
+
+#[test]
+fn a_bag_without_odom_takes_its_odometry_from_tf() {
+    let messages = recording(25, true);
+    let (odom, items) = read_chosen(&write_bag(&messages, TF_LAYOUT), None);
+    assert_eq!(odom.as_deref(), Some("/odom"));
+    let from_odom = events_of(items);
+    assert_eq!(from_odom.len(), 50);
+    // Either transform type, chunked or not.
+    for (conn, per_chunk) in [(2, 7), (3, 7), (2, 0), (3, 0)] {
+        let layout = Layout {
+            per_chunk,
+            compression: if per_chunk == 0 { "none" } else { "lz4" },
+            index_entry: (per_chunk > 0).then_some(12),
+            ..TF_LAYOUT
+        };
+        let bag = write_bag(&with_tf(&messages, conn, false, 0.0), layout);
+        let (odom, items) = read_chosen(&bag, None);
+        assert_eq!(odom.as_deref(), Some("/tf"), "{conn} {layout:?}");
+        assert_same_odometry(&from_odom, &events_of(items), 0.0);
+    }
+}
+
+#[test]
+fn a_bag_with_odom_and_tf_takes_odom() {
+    let messages = recording(25, true);
+    let from_odom = events_of(read_chosen(&write_bag(&messages, TF_LAYOUT), None).1);
+    // `/tf` 5 m off the odometry: taken only when asked for.
+    let bag = write_bag(&with_tf(&messages, 2, true, 5.0), TF_LAYOUT);
+    let (odom, items) = read_chosen(&bag, None);
+    assert_eq!(odom.as_deref(), Some("/odom"));
+    assert_same_odometry(&from_odom, &events_of(items), 0.0);
+    let (odom, items) = read_chosen(&bag, Some("/tf"));
+    assert_eq!(odom.as_deref(), Some("/tf"));
+    assert_same_odometry(&from_odom, &events_of(items), 5.0);
+}
+
+#[test]
+fn a_damaged_tf_message_is_an_error_not_a_panic() {
+    let m = tf_message(
+        (1_000, 5),
+        &[
+            ("base_link", "laser", 0.2, 0.0, 0.0),
+            ("odom", "base_footprint", 1.5, -2.0, 0.5),
+        ],
+    );
+    let (pose, t) = decode_tf_odometry(&m).unwrap().expect("a pose");
+    assert!((t - 1_000.000_000_005).abs() < 1e-9);
+    assert!((pose.x - 1.5).abs() < 1e-12 && (pose.theta - 0.5).abs() < 1e-12);
+    // Cut anywhere, an error, never a panic or a pose.
+    for cut in 0..m.len() {
+        assert!(decode_tf_odometry(&m[..cut]).is_err(), "cut at {cut}");
+    }
+    let mut next = xorshift(0x51_7cc1_b727_220a);
+    for _ in 0..2000 {
+        let _ = decode_tf_odometry(&damaged(&m, 3, &mut next));
+    }
+    // Counts and lengths beyond the message are refused before reading.
+    let mut d = m.clone();
+    d[..4].copy_from_slice(&u32::MAX.to_le_bytes());
+    assert!(decode_tf_odometry(&d).unwrap_err().contains("do not fit"));
+    d = m.clone();
+    d[16..20].copy_from_slice(&u32::MAX.to_le_bytes());
+    assert!(decode_tf_odometry(&d).unwrap_err().contains("does not fit"));
+    // In a bag, the damaged message is a failed record, the rest are read.
+    let mut messages = with_tf(&recording(10, true), 2, false, 0.0);
+    let at = messages.iter().position(|m| m.conn == 2).unwrap() + 2;
+    assert_eq!(messages[at].conn, 2);
+    let len = messages[at].data.len();
+    messages[at].data.truncate(len - 4);
+    let bag = write_bag(&messages, TF_LAYOUT);
+    let (odom, items) = read_chosen(&bag, None);
+    assert_eq!(odom.as_deref(), Some("/tf"));
+    assert_eq!(items.len(), 20);
+    let failed: Vec<_> = items
+        .iter()
+        .filter_map(|item| item.as_ref().expect("not fatal").as_ref().err())
+        .collect();
+    assert_eq!(failed.len(), 1);
+    assert_eq!(failed[0].record, format!("message {} (topic /tf)", at + 1));
+    assert!(
+        failed[0].message.contains("truncated"),
+        "{}",
+        failed[0].message
+    );
+    // Damaged bags end with errors, never a panic.
+    for _ in 0..200 {
+        let d = damaged(&bag, 4, &mut next);
+        if let Ok(contents) = contents(d.as_slice(), "bag") {
+            let reader = BagReader::new(d.as_slice(), "bag", "/scan", Some("/tf"));
+            for _ in reader.knowing(&contents) {}
+        }
+    }
 }
