@@ -95,7 +95,10 @@ fn the_motion_prior_carries_the_stream_and_keyframes_chain_it() {
     // capture (timed by its packets, a revolution every 0.12 s).
     for (args, every_pair_a_keyframe) in [
         (vec![data("seattle-excerpt.log")], true),
-        (vec![data("seattle-excerpt.log"), "--keyframes".into()], false),
+        (
+            vec![data("seattle-excerpt.log"), "--keyframes".into()],
+            false,
+        ),
         (
             vec![
                 data("seattle-excerpt-360.ld06"),
