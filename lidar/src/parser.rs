@@ -115,7 +115,8 @@ pub struct Parser<L, const CAP: usize> {
     /// removed at the next call.
     pending: usize,
     /// Bytes at the buffer's start that belong to the candidate rejected
-    /// and counted last: a reject starting there is not counted again.
+    /// and counted last: a reject starting there is not counted again
+    /// (kept by the arms of `poll` that remove bytes, zero at a packet).
     rejected_span: usize,
     counters: Counters,
 }
@@ -220,11 +221,13 @@ impl<L: Layout, const CAP: usize> Parser<L, CAP> {
                 Frame::Noise => {
                     bump(&mut self.counters.skipped_bytes, 1);
                     self.discard(1);
+                    self.rejected_span = self.rejected_span.saturating_sub(1);
                 }
                 Frame::Reject(_) if self.rejected_span > 0 => {
                     // Inside the candidate counted last: one of its bytes.
                     bump(&mut self.counters.skipped_bytes, 1);
                     self.discard(1);
+                    self.rejected_span -= 1;
                 }
                 Frame::Reject(why) => {
                     bump(
@@ -236,13 +239,15 @@ impl<L: Layout, const CAP: usize> Parser<L, CAP> {
                         1,
                     );
                     // The candidate is the bytes the layout looked at to
-                    // reject it: all those buffered, at most a packet's.
-                    self.rejected_span = self.len.min(L::MAX_LEN);
+                    // reject it: all those buffered, at most a packet's;
+                    // its first byte goes now.
+                    self.rejected_span = self.len.min(L::MAX_LEN).saturating_sub(1);
                     self.discard(1);
                 }
                 Frame::Descriptor(n) => {
                     bump(&mut self.counters.descriptors, 1);
                     self.discard(n.max(1));
+                    self.rejected_span = self.rejected_span.saturating_sub(n.max(1));
                 }
                 Frame::Packet(n) => {
                     // `data` is not empty: 1 ≤ len.
@@ -295,6 +300,5 @@ impl<L: Layout, const CAP: usize> Parser<L, CAP> {
             }
         }
         self.len -= n;
-        self.rejected_span = self.rejected_span.saturating_sub(n);
     }
 }
