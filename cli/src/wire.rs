@@ -82,7 +82,7 @@ pub fn run(args: &WireArgs) -> Result<usize, Fatal> {
     }
     // Written beside the target and renamed at the end: a failed run
     // leaves neither a partial log nor a header-only one.
-    let cannot_write = |e: std::io::Error| Fatal::io(format!("{out_name}: cannot write: {e}"));
+    let cannot_write = cannot_write(&out_name);
     let mut partial = args.out.clone().into_os_string();
     partial.push(".partial");
     let partial = PathBuf::from(partial);
@@ -103,6 +103,11 @@ pub fn run(args: &WireArgs) -> Result<usize, Fatal> {
     result
 }
 
+/// The error of a log that cannot be written to `out_name`.
+fn cannot_write(out_name: &str) -> impl Fn(std::io::Error) -> Fatal + Copy + '_ {
+    move |e| Fatal::io(format!("{out_name}: cannot write: {e}"))
+}
+
 /// Writes the revolutions of `reader` to `out`: the number written.
 fn write_log<R: Read>(
     reader: &mut WireReader<R>,
@@ -111,7 +116,7 @@ fn write_log<R: Read>(
     out: &mut impl Write,
     out_name: &str,
 ) -> Result<usize, Fatal> {
-    let io = |e: std::io::Error| Fatal::io(format!("{out_name}: cannot write: {e}"));
+    let io = cannot_write(out_name);
     let mut written = 0;
     while let Some(turn) = reader.next_turn() {
         if written == 0 {
