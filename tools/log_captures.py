@@ -16,6 +16,15 @@ A capture starts mid-turn (half a turn of zeros) and ends with a few points
 of a further turn that close the last one; the reader skips the partial
 first turn, so a capture's revolution i is the log's scan i.
 
+LD06 packets carry a time stamp (ms, wrapping at 30 s): a turn's packets
+carry the log's time of its scan (2 ms more each packet), so the capture
+is as sparse or as dense as the log, as a 10 Hz sensor's capture would be
+with the revolutions between the log's scans left out. (The reader times a
+revolution by the packet that closes it, the next turn's first: a
+revolution's time is its successor scan's.) Captures written before
+issue 56 stamped every packet 2 ms after the last, whatever the log's
+rate. RPLIDAR packets carry no time.
+
 Usage: python3 tools/log_captures.py LOG[.gz] --protocol ld06|rplidar
        [--points 360] --out CAPTURE
 """
@@ -36,7 +45,8 @@ def flaser_scans(path):
             fields = line.split()
             if fields and fields[0] == "FLASER":
                 n = int(fields[1])
-                yield [float(v) for v in fields[2 : 2 + n]]
+                # ranges, then x y theta odom_x odom_y odom_theta timestamp
+                yield [float(v) for v in fields[2 : 2 + n]], float(fields[2 + n + 6])
 
 
 def carmen_increment_deg(n):
@@ -58,7 +68,7 @@ def turn_mm(scan, points):
     return out
 
 
-def ld06_stream(turns, points):
+def ld06_stream(turns, points, times):
     spacing = 36000 // points  # 0.01 degree
 
     def packet(first_k, distances, stamp):
@@ -72,16 +82,18 @@ def ld06_stream(turns, points):
         return body + bytes([crc8_4d(body)])
 
     out = bytearray()
-    stamp = 0
-    for turn in [[0] * points] + turns + [[0] * 12]:
+    # The lead-in half turn just before the first scan, the closing points
+    # just after the last.
+    starts_ms = [round(t * 1000.0) for t in times]
+    starts_ms = [starts_ms[0] - 100] + starts_ms + [starts_ms[-1] + 100]
+    for turn, start_ms in zip([[0] * points] + turns + [[0] * 12], starts_ms):
         first = points // 2 if not out else 0
-        for k in range(first, len(turn), 12):
-            out += packet(k, (turn[k : k + 12] + [0] * 12)[:12], stamp)
-            stamp += 2
+        for j, k in enumerate(range(first, len(turn), 12)):
+            out += packet(k, (turn[k : k + 12] + [0] * 12)[:12], start_ms + 2 * j)
     return bytes(out)
 
 
-def rplidar_stream(turns, points):
+def rplidar_stream(turns, points, _times):
     def node(k, mm):
         q2 = mm * 4 if mm * 4 <= 65535 else 0
         start = 1 if k == 0 else 0
@@ -107,9 +119,10 @@ def main():
     a = p.parse_args()
     if a.points <= 12 or 36000 % a.points:
         p.error("--points must divide 36000 and exceed 12")
-    turns = [turn_mm(s, a.points) for s in flaser_scans(a.log)]
+    scans = list(flaser_scans(a.log))
+    turns = [turn_mm(s, a.points) for s, _ in scans]
     encode = ld06_stream if a.protocol == "ld06" else rplidar_stream
-    data = encode(turns, a.points)
+    data = encode(turns, a.points, [t for _, t in scans])
     with open(a.out, "wb") as f:
         f.write(data)
     print(f"{a.out}: {len(turns)} turns, {len(data)} bytes")
