@@ -19,9 +19,11 @@ first turn, so a capture's revolution i is the log's scan i.
 LD06 packets carry a time stamp (ms, wrapping at 30 s): a turn's packets
 carry the log's time of its scan (2 ms more each packet), so the capture
 is as sparse or as dense as the log, as a 10 Hz sensor's capture would be
-with the revolutions between the log's scans left out. (The reader times a
-revolution by the packet that closes it, the next turn's first: a
-revolution's time is its successor scan's.) Captures written before
+with the revolutions between the log's scans left out. A turn's first
+packet, which closes the turn before (the reader times a revolution by the
+packet that closes it), is stamped 2 ms after that turn's last, as a
+logger that keeps whole revolutions keeps it. A log without a clock (its
+timestamps repeat) is written one scan a second. Captures written before
 issue 56 stamped every packet 2 ms after the last, whatever the log's
 rate. RPLIDAR packets carry no time.
 
@@ -84,12 +86,20 @@ def ld06_stream(turns, points, times):
     out = bytearray()
     # The lead-in half turn just before the first scan, the closing points
     # just after the last.
+    if len(set(times)) < len(times):
+        # A log without a clock (e.g. every timestamp 0): one scan a second,
+        # a sparse stream as the log is read.
+        times = [float(i) for i in range(len(times))]
     starts_ms = [round(t * 1000.0) for t in times]
     starts_ms = [starts_ms[0] - 100] + starts_ms + [starts_ms[-1] + 100]
+    stamp = None
     for turn, start_ms in zip([[0] * points] + turns + [[0] * 12], starts_ms):
         first = points // 2 if not out else 0
         for j, k in enumerate(range(first, len(turn), 12)):
-            out += packet(k, (turn[k : k + 12] + [0] * 12)[:12], start_ms + 2 * j)
+            # A turn's first packet closes the turn before, as a logger that
+            # keeps whole revolutions keeps it: its stamp follows that turn's.
+            stamp = stamp + 2 if j == 0 and stamp is not None else start_ms + 2 * j
+            out += packet(k, (turn[k : k + 12] + [0] * 12)[:12], stamp)
     return bytes(out)
 
 
